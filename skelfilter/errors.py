@@ -1,0 +1,17 @@
+"""Errors a user can act on: the CLI prints them as one line and exits non-zero."""
+
+
+class SkelfilterError(Exception):
+    """Base class of the errors skelfilter reports to its users."""
+
+
+class InputError(SkelfilterError):
+    """The input mesh or volume cannot be used (unreadable, empty, NaN coordinates)."""
+
+
+class ParameterError(SkelfilterError, ValueError):
+    """A parameter is out of range or of the wrong kind."""
+
+
+class ResourceError(SkelfilterError):
+    """The requested grid would not fit in the memory available."""

@@ -1,0 +1,106 @@
+"""Mesh files in and out (any format trimesh reads/writes), validated and written atomically."""
+
+import os
+import tempfile
+
+import numpy as np
+import trimesh
+
+from .errors import InputError
+
+MESH_FORMATS = ("ply", "obj", "stl", "off", "glb")
+
+
+def _extension(path):
+    ext = os.path.splitext(str(path))[1].lower().lstrip(".")
+    if ext not in MESH_FORMATS:
+        raise InputError(f"{path}: unsupported mesh format {ext!r} (use one of {', '.join(MESH_FORMATS)})")
+    return ext
+
+
+def load_mesh(path):
+    """Read a triangle mesh, refusing what the pipeline cannot use.
+
+    Raises
+    ------
+    InputError
+        Missing or unreadable file, no triangles, non-finite coordinates.
+    """
+    path = str(path)
+    ext = _extension(path)
+    if not os.path.isfile(path):
+        raise InputError(f"{path}: no such file")
+    try:
+        mesh = trimesh.load(path, file_type=ext, force="mesh", process=False)
+    except Exception as exc:  # trimesh raises many kinds on corrupt files
+        raise InputError(f"{path}: cannot read mesh ({type(exc).__name__}: {exc})") from None
+    return validate_mesh(mesh, path)
+
+
+def validate_mesh(mesh, name="mesh"):
+    """Check a mesh has triangles and finite vertices; returns it."""
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0 or len(mesh.vertices) == 0:
+        raise InputError(f"{name}: the mesh is empty (no triangles)")
+    if not np.isfinite(mesh.vertices).all():
+        raise InputError(f"{name}: vertex coordinates contain NaN or infinity")
+    if np.ptp(mesh.vertices, axis=0).max() <= 0:
+        raise InputError(f"{name}: all vertices coincide")
+    return mesh
+
+
+def _same_file(a, b):
+    return os.path.exists(b) and os.path.realpath(a) == os.path.realpath(b)
+
+
+def atomic_write(path, write, protect=()):
+    """Call ``write(tmp_path)`` then move the result onto ``path`` in one step.
+
+    ``protect`` lists files (the inputs) that ``path`` must not be.
+    """
+    path = str(path)
+    for p in protect:
+        if _same_file(p, path):
+            raise InputError(f"{path}: refusing to overwrite the input file")
+    directory = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(directory):
+        raise InputError(f"{path}: output folder does not exist")
+    fd, tmp = tempfile.mkstemp(dir=directory, prefix=".skelfilter-", suffix=os.path.splitext(path)[1])
+    os.close(fd)
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def save_mesh(mesh, path, protect=()):
+    """Write ``mesh`` to ``path`` (format from the extension), atomically."""
+    ext = _extension(path)
+    atomic_write(path, lambda tmp: mesh.export(tmp, file_type=ext), protect)
+
+
+def save_point_cloud_ply(path, points, properties, protect=()):
+    """Binary PLY point cloud with per-point float properties.
+
+    ``properties`` maps names to arrays; a ``quality`` entry is what MeshLab
+    colours by (Colors > Per Vertex Quality), the others load as attributes.
+    """
+    points = np.asarray(points, dtype=np.float32)
+    names = list(properties)
+    dtype = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")] + [(n, "<f4") for n in names]
+    data = np.empty(len(points), dtype=dtype)
+    data["x"], data["y"], data["z"] = points.T
+    for n in names:
+        data[n] = np.asarray(properties[n], dtype=np.float32)
+    header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(points)}"]
+    header += [f"property float {n}" for n, _ in dtype]
+    header.append("end_header")
+
+    def write(tmp):
+        with open(tmp, "wb") as f:
+            f.write(("\n".join(header) + "\n").encode("ascii"))
+            f.write(data.tobytes())
+
+    atomic_write(path, write, protect)

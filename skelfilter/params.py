@@ -1,0 +1,154 @@
+"""The filter parameters, in one place.
+
+Every parameter is a dataclass field whose metadata carries its unit, its
+choices and a description; the CLI flags and the Python API defaults are
+derived from these dataclasses. Defaults are the thesis' (§8.1.2).
+"""
+
+import math
+from dataclasses import dataclass, field, fields, replace
+
+from .errors import ParameterError
+
+
+def _p(default, help, unit="", choices=None, flag=None):
+    meta = {"help": help, "unit": unit}
+    if choices is not None:
+        meta["choices"] = tuple(choices)
+    if flag is not None:
+        meta["flag"] = flag
+    return field(default=default, metadata=meta)
+
+
+@dataclass(frozen=True)
+class DenoiseParams:
+    """Parameters of the skeleton saliency denoiser (thesis §8.1.1-8.1.2)."""
+
+    resolution: int = _p(256, "voxels along the longest side of the mesh's bounding box", "voxels")
+    padding: int | None = _p(
+        None,
+        "empty voxels added around the shape on every side; the background stage works inside "
+        "this padded box (default: max(8, t/2 + 2))",
+        "voxels",
+    )
+    threshold: float = _p(
+        18.0,
+        "importance threshold t on rho+ (eq. 5.6): skeleton parts whose streamline importance is "
+        "below t are pruned; t must exceed the geodesic width of the noise to remove "
+        "(about 2h + pi r for a ridge of height h and radius r)",
+        "voxels",
+    )
+    threshold_relative: float | None = _p(
+        None,
+        "threshold t as a fraction of the longest bounding-box side (overrides --threshold; "
+        "t = threshold_relative * resolution voxels)",
+        "fraction",
+    )
+    k: float = _p(0.9, "derivative threshold k: skeleton voxels with sigma_bar <= k are ligature (eq. 5.6)")
+    derivative_guard: float = _p(
+        0.1,
+        "guard l of eq. 4.3: where grad D . v < l the derivative measure is undefined and the voxel "
+        "is never treated as ligature",
+        "voxels",
+    )
+    stages: str = _p(
+        "both",
+        "which stages run: foreground removes bumps, background removes dents (§3.1.1)",
+        choices=("both", "foreground", "background"),
+    )
+    edt_filter: str = _p(
+        "minify", "EDT filter applied to the kept skeleton radii (§6.2.1)", choices=("minify", "none")
+    )
+    minify_radius: float = _p(3.0, "radius r of the implicit minification filter (§6.2.1)", "voxels")
+    importance: str = _p(
+        "geodesic",
+        "importance rho: graph geodesic over the boundary layer (§3.1.2), its estimate (eq. 7.22) "
+        "or the Euclidean distance of the feature points",
+        choices=("geodesic", "estimate", "euclidean"),
+    )
+    geodesic_cap: float | None = _p(
+        None,
+        "geodesics are searched up to this length and longer ones are set to it; any cap above t "
+        "leaves the kept/pruned decision of every voxel unchanged in practice (default max(2t, t+8))",
+        "voxels",
+    )
+    skeleton: str = _p(
+        "ie",
+        "surface skeleton rule: IE (eq. 7.7, E >= 1) or IMA (eq. 7.1-7.2)",
+        choices=("ie", "ima"),
+    )
+    velocity: str = _p(
+        "feature",
+        "velocity field v of the derivative measure: feature-point based (eq. 4.16) or grad D (eq. 4.7)",
+        choices=("feature", "edt-gradient"),
+    )
+
+    def __post_init__(self):
+        if not isinstance(self.resolution, int) or self.resolution < 16:
+            raise ParameterError(f"resolution must be an integer >= 16, got {self.resolution!r}")
+        if self.padding is not None and self.padding < 2:
+            raise ParameterError(f"padding must be >= 2 voxels, got {self.padding}")
+        for f in fields(self):
+            choices = f.metadata.get("choices")
+            if choices and getattr(self, f.name) not in choices:
+                raise ParameterError(
+                    f"{f.name} must be one of {', '.join(choices)}, got {getattr(self, f.name)!r}"
+                )
+        if self.threshold_relative is not None and not 0 < self.threshold_relative < 1:
+            raise ParameterError(f"threshold_relative must be in (0, 1), got {self.threshold_relative}")
+        for name in ("threshold", "minify_radius"):
+            value = getattr(self, name)
+            if not math.isfinite(value) or value < 0:
+                raise ParameterError(f"{name} must be a finite number >= 0, got {value}")
+        if self.geodesic_cap is not None and self.geodesic_cap <= self.threshold_voxels:
+            raise ParameterError("geodesic_cap must be larger than the threshold t")
+
+    @property
+    def threshold_voxels(self):
+        """The threshold t in voxels."""
+        if self.threshold_relative is not None:
+            return self.threshold_relative * self.resolution
+        return float(self.threshold)
+
+    @property
+    def cap_voxels(self):
+        """Length at which geodesic searches stop (see ``geodesic_cap``)."""
+        if self.geodesic_cap is not None:
+            return float(self.geodesic_cap)
+        t = self.threshold_voxels
+        return max(2.0 * t, t + 8.0)
+
+    @property
+    def padding_voxels(self):
+        if self.padding is not None:
+            return int(self.padding)
+        return max(8, int(math.ceil(self.threshold_voxels / 2)) + 2)
+
+    def with_(self, **changes):
+        return replace(self, **changes)
+
+
+@dataclass(frozen=True)
+class NoiseParams:
+    """Parameters of the thesis' noise model (§7.2)."""
+
+    p: float = _p(0.014, "incidence: probability that a surface voxel starts a protrusion", "probability")
+    r: float = _p(2.1, "radius of the spherical noise kernel (eq. 7.13)", "voxels")
+    h: int = _p(3, "height of the protrusion along the normal (eq. 7.14)", "voxels")
+    l: int = _p(6, "length of the random surface walk; 1 gives isolated bumps (eq. 7.15-7.16)", "steps")
+    seed: int = _p(0, "random seed; equal seeds give equal noise")
+    dents: bool = _p(False, "also carve dents inward, at independently drawn sites")
+    resolution: int = _p(160, "voxels along the longest side of the bounding box", "voxels")
+
+    def __post_init__(self):
+        if not 0 <= self.p <= 1:
+            raise ParameterError(f"p must be in [0, 1], got {self.p}")
+        if self.r <= 0 or self.h < 0 or self.l < 1:
+            raise ParameterError("noise needs r > 0, h >= 0 and l >= 1")
+        if not isinstance(self.resolution, int) or self.resolution < 16:
+            raise ParameterError(f"resolution must be an integer >= 16, got {self.resolution!r}")
+
+    @property
+    def padding_voxels(self):
+        """Room left around the shape so protrusions never reach the border."""
+        return int(math.ceil(self.h + self.r)) + 10

@@ -1,0 +1,241 @@
+"""The adapted saliency pipeline (thesis §8.1.1): composition of the stages.
+
+mesh -> grid -> distance & feature fields -> skeleton -> importance ->
+derivative measure -> rho+ -> pruned skeleton -> EDT filter ->
+reconstruction -> mesh; foreground stage for bumps, background stage for dents.
+"""
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from . import edt_filters, importance, noise, reconstruct, saliency, skeleton, surface, voxelize
+from .distance import distance_and_features
+from .errors import InputError
+from .memory import check_grid_fits
+from .neighbourhood import ravel
+from .params import DenoiseParams, NoiseParams
+from .progress import Progress
+
+
+@dataclass
+class SkeletonData:
+    """Per-skeleton-voxel quantities of one stage (flat arrays aligned with ``voxels``)."""
+
+    voxels: np.ndarray  # flat indices into the stage's volume
+    distance: np.ndarray  # D
+    rho: np.ndarray  # importance
+    sigma_bar: np.ndarray  # derivative measure (NaN: undefined, eq. 4.3)
+    rho_plus: np.ndarray  # global streamline importance, eq. 5.6
+    kept: np.ndarray  # rho+ >= t
+    radii: np.ndarray  # reconstruction radii of the kept voxels (after the EDT filter)
+    expansions: np.ndarray = None  # A* nodes settled per geodesic query
+
+
+@dataclass
+class StageResult:
+    mask: np.ndarray  # the reconstruction, a subset of the stage's input set
+    field: np.ndarray  # signed distance-like field, > 0 inside the reconstruction
+    skeleton: SkeletonData
+
+
+@dataclass
+class DenoiseResult:
+    mask: np.ndarray  # denoised occupancy, same shape as the input volume
+    field: np.ndarray  # > 0 inside; its 0-level is the sub-voxel surface
+    stages: dict = field(default_factory=dict)  # "foreground"/"background" -> StageResult
+    timings: dict = field(default_factory=dict)
+
+
+def resolve_params(params=None, **overrides):
+    """A DenoiseParams from an instance and/or keyword overrides."""
+    if params is None:
+        return DenoiseParams(**overrides)
+    return params.with_(**overrides) if overrides else params
+
+
+def saliency_stage(volume, params, progress):
+    """One stage (§8.1.1 steps 1–5) on the set ``volume``; returns its reconstruction."""
+    shape = volume.shape
+    with progress.step("distance transform"):
+        distance, features = distance_and_features(volume)
+    with progress.step("skeleton"):
+        if params.skeleton == "ie":
+            voxels = skeleton.ie_skeleton(distance)
+        else:
+            voxels = skeleton.ima_skeleton(volume, features)
+        a, b = skeleton.extended_feature_points(volume, features, voxels)
+        del features
+    with progress.step("importance"):
+        a_flat, b_flat = ravel(a, shape), ravel(b, shape)
+        expansions = None
+        if params.importance == "geodesic":
+            rho, expansions = importance.geodesic_importance(
+                importance.boundary_layer(volume), a_flat, b_flat, params.cap_voxels
+            )
+        elif params.importance == "estimate":
+            rho = importance.geodesic_estimate(distance, a_flat, b_flat)
+        else:
+            rho = importance.euclidean_importance(shape, a_flat, b_flat)
+    with progress.step("derivative measure"):
+        adjacency = saliency.skeleton_adjacency(voxels, shape)
+        if params.velocity == "feature":
+            v = saliency.feature_velocity(voxels, shape, a, b)
+        else:
+            v = saliency.edt_gradient_velocity(distance, voxels)
+        sigma_bar = saliency.derivative_measure(
+            rho, distance, voxels, v, adjacency, params.derivative_guard
+        )
+    with progress.step("rho+"):
+        rho_plus = saliency.rho_plus(rho, sigma_bar, adjacency, params.k)
+        kept = rho_plus >= params.threshold_voxels
+        centres = voxels[kept]
+    with progress.step("EDT filter"):
+        radii = distance.reshape(-1)[centres]
+        if params.edt_filter == "minify":
+            # Eq. 6.1 keeps the filter anti-extensive, but on a discrete EDT
+            # (D >= 1 on X) the +r correction can exceed D by up to 1: cap it.
+            radii = np.minimum(edt_filters.minify(distance, centres, params.minify_radius), radii)
+    with progress.step("reconstruction"):
+        # Balls of radius D reach the centres of the nearest outside voxels;
+        # shrunk by half a voxel they end on the voxel boundary, so the
+        # reconstruction is the voxel set whose centres lie inside the
+        # union, and ripples under half a voxel vanish.
+        radii = np.maximum(radii - surface.SURFACE_OFFSET, 0.0)
+        power, owner = reconstruct.reverse_edt(shape, centres, radii)
+        mask = reconstruct.reconstruction(power)
+        del power
+        phi = reconstruct.signed_distance(shape, centres, radii, owner)
+        del owner
+    data = SkeletonData(
+        voxels=voxels,
+        distance=distance.reshape(-1)[voxels],
+        rho=rho,
+        sigma_bar=sigma_bar,
+        rho_plus=rho_plus,
+        kept=kept,
+        radii=radii,
+        expansions=expansions,
+    )
+    return StageResult(mask=mask, field=phi, skeleton=data)
+
+
+def denoise_padded(volume, params, progress):
+    """Both stages on a volume whose set keeps ``params.padding_voxels`` from the faces."""
+    result = DenoiseResult(mask=volume, field=None, timings=progress.timings)
+    current = volume
+    if params.stages in ("both", "foreground"):
+        with progress.stage("foreground"):
+            stage = saliency_stage(current, params, progress)
+        result.stages["foreground"] = stage
+        current = stage.mask
+        field = stage.field
+    if params.stages in ("both", "background"):
+        # The background lives inside the box; the box's outer layer stands
+        # for the infinite outside so the background set is bounded (eq. 3.4).
+        frame = np.ones(current.shape, dtype=bool)
+        frame[1:-1, 1:-1, 1:-1] = False
+        with progress.stage("background"):
+            stage = saliency_stage(~current & ~frame, params, progress)
+        result.stages["background"] = stage
+        current = ~stage.mask & ~frame
+        field = -stage.field
+        field[frame] = -1.0
+    result.mask = current
+    result.field = field
+    return result
+
+
+def denoise_volume(volume, params=None, progress=None, **overrides):
+    """Denoise a binary volume (thesis §8.1.1).
+
+    Parameters
+    ----------
+    volume : (nx, ny, nz) array_like of bool
+        The noisy shape X.
+    params : DenoiseParams, optional
+        Parameters; keyword arguments override single fields
+        (``denoise_volume(v, threshold=12)``).
+
+    Returns
+    -------
+    DenoiseResult
+        ``mask`` (same shape as ``volume``), ``field`` (> 0 inside, 0 on the
+        sub-voxel surface), per-stage skeleton data and step timings.
+        ``resolution`` is ignored here (the volume's grid is used as it is).
+    """
+    params = resolve_params(params, **overrides)
+    volume = np.asarray(volume)
+    if volume.ndim != 3:
+        raise InputError(f"a volume must be 3-D, got shape {volume.shape}")
+    volume = volume.astype(bool)
+    if not volume.any():
+        raise InputError("the volume is empty: no voxel is set")
+    pad = params.padding_voxels
+    padded_shape = tuple(s + 2 * pad for s in volume.shape)
+    check_grid_fits(padded_shape)
+    padded = np.pad(volume, pad)
+    progress = progress or Progress(enabled=False)
+    result = denoise_padded(padded, params, progress)
+    inner = (slice(pad, -pad),) * 3
+    result.mask = result.mask[inner]
+    result.field = result.field[inner]
+    return result
+
+
+def denoise_mesh(mesh, params=None, progress=None, **overrides):
+    """Denoise a triangle mesh: voxelize, run the pipeline, marching cubes.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+    params : DenoiseParams, optional; keyword arguments override its fields.
+
+    Returns
+    -------
+    trimesh.Trimesh
+        Watertight mesh in the input's world coordinates.
+    """
+    return denoise_mesh_detailed(mesh, params, progress, **overrides)[0]
+
+
+def denoise_mesh_detailed(mesh, params=None, progress=None, **overrides):
+    """Like :func:`denoise_mesh`, also returning the DenoiseResult and the Grid."""
+    params = resolve_params(params, **overrides)
+    progress = progress or Progress(enabled=False)
+    grid = voxelize.grid_for_bounds(mesh.bounds, params.resolution, params.padding_voxels)
+    check_grid_fits(grid.shape)
+    with progress.step("voxelize"):
+        occupancy = voxelize.voxelize_on_grid(mesh, grid)
+    if not occupancy.any():
+        raise InputError("the mesh encloses no voxel at this resolution (is it flat or open?)")
+    result = denoise_padded(occupancy, params, progress)
+    with progress.step("marching cubes"):
+        out = surface.field_to_mesh(result.field, grid)
+    return out, result, grid
+
+
+def noisy_mesh(mesh, params=None, progress=None, **overrides):
+    """The thesis' synthetic noise (§7.2) on a mesh's voxelization.
+
+    Returns
+    -------
+    (trimesh.Trimesh, noise.NoiseResult, voxelize.Grid)
+        The noisy mesh in world coordinates; the clean/noisy/bump/dent masks
+        over the grid, for metrics.
+    """
+    if params is None:
+        params = NoiseParams(**overrides)
+    elif overrides:
+        params = replace(params, **overrides)
+    progress = progress or Progress(enabled=False)
+    grid = voxelize.grid_for_bounds(mesh.bounds, params.resolution, params.padding_voxels)
+    check_grid_fits(grid.shape)
+    with progress.step("voxelize"):
+        clean = voxelize.voxelize_on_grid(mesh, grid)
+    with progress.step("noise"):
+        result = noise.add_noise(clean, p=params.p, r=params.r, h=params.h, l=params.l,
+                                 seed=params.seed, dents=params.dents)
+    with progress.step("marching cubes"):
+        out = surface.mask_to_mesh(result.noisy, grid)
+    return out, result, grid

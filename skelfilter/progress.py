@@ -1,0 +1,44 @@
+"""Step timing, and a one-line-per-step progress display on a terminal."""
+
+import sys
+import time
+from contextlib import contextmanager
+
+
+class Progress:
+    """Times named steps; prints each on ``stream`` when ``enabled``.
+
+    ``enabled=None`` shows progress only when the stream is a terminal.
+    """
+
+    def __init__(self, enabled=None, stream=None):
+        self.stream = stream if stream is not None else sys.stderr
+        if enabled is None:
+            enabled = hasattr(self.stream, "isatty") and self.stream.isatty()
+        self.enabled = enabled
+        self.timings = {}
+        self._prefix = ""
+
+    @contextmanager
+    def stage(self, name):
+        """Prefix the steps run inside with ``name`` (e.g. the pipeline stage)."""
+        saved = self._prefix
+        self._prefix = f"{saved}{name}/"
+        try:
+            yield
+        finally:
+            self._prefix = saved
+
+    @contextmanager
+    def step(self, name):
+        key = self._prefix + name
+        if self.enabled:
+            self.stream.write(f"  {key} ...")
+            self.stream.flush()
+        start = time.perf_counter()
+        yield
+        elapsed = time.perf_counter() - start
+        self.timings[key] = self.timings.get(key, 0.0) + elapsed
+        if self.enabled:
+            self.stream.write(f" {elapsed:.2f} s\n")
+            self.stream.flush()

@@ -1,0 +1,143 @@
+"""Derivative measure and global streamline importance (thesis §4.2 and §5.2.2).
+
+Everything here works on flat arrays over the skeleton voxels, linked by
+their 26-adjacency; ``rho`` exists only on the skeleton, so its derivative
+is taken from skeleton neighbours only (§4.2.1).
+"""
+
+import numba
+import numpy as np
+
+from .distance import gradient_at
+from .neighbourhood import OFFSETS_26, flat_offsets, unravel
+
+
+def skeleton_adjacency(skeleton, shape):
+    """26-adjacency among skeleton voxels as a CSR pair ``(indptr, indices)``.
+
+    ``skeleton`` holds flat voxel indices; neighbours are referred to by
+    their position in that array. The skeleton must not touch the volume's
+    faces.
+    """
+    n = len(skeleton)
+    lookup = np.full(int(np.prod(shape)), -1, dtype=np.int32)
+    lookup[skeleton] = np.arange(n, dtype=np.int32)
+    rows, cols = [], []
+    for step in flat_offsets(shape, OFFSETS_26):
+        j = lookup[skeleton + step]
+        has = j >= 0
+        rows.append(np.flatnonzero(has).astype(np.int32))
+        cols.append(j[has])
+    del lookup
+    rows = np.concatenate(rows)
+    cols = np.concatenate(cols)
+    order = np.argsort(rows, kind="stable")
+    indptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(rows, minlength=n), out=indptr[1:])
+    return indptr, cols[order]
+
+
+def feature_velocity(skeleton, shape, a, b):
+    """Feature-point velocity field ``v(x) = x - (a+ + a-)/2`` (eq. 4.16), shape ``(n, 3)``.
+
+    It lies in the skeleton's tangent plane and points to growing ``D``.
+    """
+    x = unravel(skeleton, shape).astype(np.float32)
+    return x - 0.5 * (a + b).astype(np.float32)
+
+
+def edt_gradient_velocity(distance, skeleton):
+    """Velocity field ``v(x) = grad D(x)`` by central differences (eq. 4.7)."""
+    return gradient_at(distance, skeleton)
+
+
+def derivative_measure(rho, distance, skeleton, velocity, adjacency, guard=0.1, min_cosine=0.5):
+    """Derivative measure ``sigma_bar = (grad rho . v) / (grad D . v)`` (eq. 4.2).
+
+    Both directional derivatives are taken along the same step on the
+    skeleton: from ``x`` to its 26-neighbour ``y`` on the skeleton that best
+    follows ``v(x)`` (largest cosine, at least ``min_cosine``), as the
+    discrete streamlines of eq. 5.1 do. Then
+    ``sigma_bar = (rho(y) - rho(x)) / (D(y) - D(x))``; the length of ``v``
+    and of the step cancel, as in eq. 4.2. Inside a ligature sheet the step
+    stays on voxels with the same feature points, so ``sigma_bar`` is 0.
+
+    Returns
+    -------
+    sigma_bar : float32 ndarray
+        NaN where ``D`` grows by less than ``guard`` per voxel along the step
+        (eq. 4.3), or where no skeleton neighbour lies ahead along ``v``:
+        there the measure is undefined and the voxel is never a ligature
+        candidate.
+    """
+    indptr, indices = adjacency
+    coords = unravel(skeleton, distance.shape).astype(np.float64)
+    d_skel = distance.reshape(-1)[skeleton].astype(np.float64)
+    return _step_ratio(coords, np.asarray(rho, dtype=np.float64), d_skel,
+                       np.asarray(velocity, dtype=np.float64), indptr, indices, guard, min_cosine)
+
+
+@numba.njit(cache=True, parallel=True)
+def _step_ratio(coords, rho, dist, velocity, indptr, indices, guard, min_cosine):
+    n = coords.shape[0]
+    out = np.full(n, np.nan, dtype=np.float32)
+    for i in numba.prange(n):
+        v0, v1, v2 = velocity[i, 0], velocity[i, 1], velocity[i, 2]
+        vn = np.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+        if vn == 0.0:
+            continue
+        best, best_j, best_len = min_cosine, -1, 1.0
+        for p in range(indptr[i], indptr[i + 1]):
+            j = indices[p]
+            d0 = coords[j, 0] - coords[i, 0]
+            d1 = coords[j, 1] - coords[i, 1]
+            d2 = coords[j, 2] - coords[i, 2]
+            length = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            cosine = (d0 * v0 + d1 * v1 + d2 * v2) / (length * vn)
+            if cosine >= best:
+                best, best_j, best_len = cosine, j, length
+        if best_j < 0:
+            continue
+        rise = dist[best_j] - dist[i]
+        if rise < guard * best_len:  # eq. 4.3
+            continue
+        out[i] = (rho[best_j] - rho[i]) / rise  # eq. 4.2
+    return out
+
+
+def rho_plus(rho, sigma_bar, adjacency, k=0.9):
+    """Global streamline importance ``rho+`` (eq. 5.6).
+
+    Voxels are visited in decreasing ``rho`` (ties by position). The first
+    (the root) and every low-derivative voxel (``sigma_bar <= k``) keep
+    ``rho+ = rho``; any other takes the largest ``rho+`` among its
+    already visited 26-neighbours, or keeps ``rho`` when it has none (a local
+    maximum, READING-NOTES). NaN ``sigma_bar`` (undefined, eq. 4.3) is never
+    low-derivative. Linear after the sort.
+    """
+    indptr, indices = adjacency
+    rho = np.asarray(rho, dtype=np.float32)
+    order = np.argsort(-rho, kind="stable").astype(np.int64)
+    ligature = np.asarray(sigma_bar <= k)  # NaN compares False
+    return _rho_plus(rho, ligature, order, indptr, indices)
+
+
+@numba.njit(cache=True)
+def _rho_plus(rho, ligature, order, indptr, indices):
+    n = rho.shape[0]
+    out = rho.copy()
+    rank = np.empty(n, dtype=np.int64)
+    for r in range(n):
+        rank[order[r]] = r
+    for r in range(1, n):
+        i = order[r]
+        if ligature[i]:
+            continue
+        best = -np.inf
+        for p in range(indptr[i], indptr[i + 1]):
+            j = indices[p]
+            if rank[j] < r and out[j] > best:
+                best = out[j]
+        if best > -np.inf:
+            out[i] = best
+    return out

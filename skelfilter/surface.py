@@ -1,0 +1,58 @@
+"""From volumes back to meshes: marching cubes at sub-voxel precision."""
+
+import numpy as np
+import trimesh
+from skimage import measure
+
+from . import reconstruct
+from .distance import distance_and_features
+
+# Balls of radius D touch the centres of the nearest outside voxels; the
+# boundary between inside and outside voxel centres is half a voxel further in.
+SURFACE_OFFSET = 0.5
+
+
+def field_to_mesh(field, grid):
+    """Marching cubes of the 0-level of ``field`` (> 0 inside) in world coordinates.
+
+    Parameters
+    ----------
+    field : float ndarray
+        Continuous field over ``grid``; must be negative on the volume's faces
+        so the surface is closed.
+    grid : voxelize.Grid
+
+    Returns
+    -------
+    trimesh.Trimesh
+        Watertight, outward-oriented mesh.
+    """
+    inside = field > 0
+    if not inside.any():
+        raise ValueError("the field has no inside: nothing to mesh")
+    lo = np.maximum(np.argwhere(inside).min(axis=0) - 2, 0)
+    hi = np.minimum(np.argwhere(inside).max(axis=0) + 3, field.shape)
+    crop = tuple(slice(a, b) for a, b in zip(lo, hi))
+    verts, faces, _, _ = measure.marching_cubes(np.ascontiguousarray(field[crop], dtype=np.float32), level=0.0)
+    mesh = trimesh.Trimesh(grid.to_world(verts + lo), faces, process=True)
+    if mesh.volume < 0:
+        mesh.invert()
+    return mesh
+
+
+def mask_field(mask):
+    """Continuous field of a binary volume: the union of the balls of all its voxels.
+
+    Same construction as the pipeline's reconstruction without pruning, so
+    meshes of noisy and of denoised volumes are extracted alike.
+    """
+    distance, _ = distance_and_features(mask)
+    centres = np.flatnonzero(mask.reshape(-1))
+    radii = distance.reshape(-1)[centres] - SURFACE_OFFSET
+    _, owner = reconstruct.reverse_edt(mask.shape, centres, radii)
+    return reconstruct.signed_distance(mask.shape, centres, radii, owner)
+
+
+def mask_to_mesh(mask, grid):
+    """Mesh of a binary volume (e.g. a noisy voxel model) in world coordinates."""
+    return field_to_mesh(mask_field(mask), grid)

@@ -1,0 +1,124 @@
+"""The command line: real files in and out, one clear error line on bad input."""
+
+import hashlib
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import trimesh
+
+from skelfilter import cli
+from skelfilter.memory import check_grid_fits
+from skelfilter.errors import ResourceError
+
+
+def run_cli(*args):
+    return subprocess.run([sys.executable, "-m", "skelfilter.cli", *map(str, args)],
+                          capture_output=True, text=True, timeout=600)
+
+
+def digest(path):
+    return hashlib.sha256(open(path, "rb").read()).hexdigest()
+
+
+@pytest.fixture(scope="module")
+def cube_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("in") / "cube.stl"
+    trimesh.creation.box((1.0, 1.2, 0.8)).export(path)
+    return path
+
+
+@pytest.mark.parametrize("ext", ["ply", "obj", "off", "glb"])
+def test_denoise_writes_every_format_and_keeps_the_input(cube_file, tmp_path, ext):
+    before = digest(cube_file)
+    out = tmp_path / f"out.{ext}"
+    r = run_cli("denoise", cube_file, out, "--resolution", "32", "--importance", "euclidean")
+    assert r.returncode == 0, r.stderr
+    assert digest(cube_file) == before
+    mesh = trimesh.load(out, force="mesh")
+    assert mesh.is_watertight
+    # the box survives in its own world coordinates (within a voxel)
+    pitch = 1.2 / 32
+    assert np.allclose(mesh.bounds, [[-0.5, -0.6, -0.4], [0.5, 0.6, 0.4]], atol=1.5 * pitch)
+    assert not [p for p in os.listdir(tmp_path) if p.startswith(".skelfilter-")]
+
+
+def test_save_skeleton_writes_a_point_cloud_with_measures(cube_file, tmp_path):
+    out, skel = tmp_path / "out.ply", tmp_path / "skel.ply"
+    r = run_cli("noise", cube_file, tmp_path / "noisy.ply", "--resolution", "40", "--seed", "3")
+    assert r.returncode == 0, r.stderr
+    r = run_cli("denoise", tmp_path / "noisy.ply", out, "--resolution", "40", "--save-skeleton", skel)
+    assert r.returncode == 0, r.stderr
+    header = open(skel, "rb").read(400).split(b"end_header")[0].decode()
+    for name in ("quality", "d", "rho", "sigma_bar", "rho_plus"):
+        assert f"property float {name}" in header
+    cloud = trimesh.load(skel)
+    assert len(cloud.vertices) > 100
+    assert np.all(cloud.vertices.min(0) > -0.6) and np.all(cloud.vertices.max(0) < 0.7)
+
+
+def one_error_line(r):
+    lines = [line for line in r.stderr.strip().splitlines() if line]
+    return r.returncode != 0 and len(lines) == 1 and lines[0].startswith("skelfilter: error:")
+
+
+def test_missing_file(tmp_path):
+    assert one_error_line(run_cli("denoise", tmp_path / "nope.obj", tmp_path / "o.obj"))
+
+
+def test_unreadable_file(tmp_path):
+    bad = tmp_path / "bad.ply"
+    bad.write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 99\ngarbage")
+    r = run_cli("denoise", bad, tmp_path / "o.ply")
+    assert one_error_line(r)
+    assert not (tmp_path / "o.ply").exists()
+
+
+def test_empty_mesh(tmp_path):
+    empty = tmp_path / "empty.obj"
+    empty.write_text("# nothing\n")
+    assert one_error_line(run_cli("denoise", empty, tmp_path / "o.obj"))
+
+
+def test_nan_coordinates(tmp_path):
+    nan = tmp_path / "nan.obj"
+    nan.write_text("v 0 0 0\nv 1 0 0\nv nan 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n")
+    r = run_cli("denoise", nan, tmp_path / "o.obj")
+    assert one_error_line(r) and "NaN" in r.stderr
+
+
+def test_resolution_too_small(cube_file, tmp_path):
+    assert one_error_line(run_cli("denoise", cube_file, tmp_path / "o.obj", "--resolution", "8"))
+
+
+def test_resolution_too_large_is_refused_before_allocating(cube_file, tmp_path):
+    r = run_cli("denoise", cube_file, tmp_path / "o.obj", "--resolution", "100000")
+    assert one_error_line(r) and "GiB" in r.stderr
+
+
+def test_memory_estimate():
+    with pytest.raises(ResourceError):
+        check_grid_fits((1000, 1000, 1000), available=10 * 2**30)
+    assert check_grid_fits((100, 100, 100), available=10 * 2**30) > 0
+
+
+def test_refuses_to_overwrite_input(cube_file, tmp_path):
+    copy = tmp_path / "same.stl"
+    copy.write_bytes(open(cube_file, "rb").read())
+    before = digest(copy)
+    assert one_error_line(run_cli("denoise", copy, copy, "--resolution", "24"))
+    assert digest(copy) == before
+
+
+def test_flags_come_from_the_parameter_dataclass():
+    parser = cli.build_parser()
+    args = parser.parse_args(["denoise", "a.obj", "b.obj", "--threshold", "12", "--stages", "foreground",
+                              "--edt-filter", "none", "--importance", "estimate", "--skeleton", "ima", "--k", "0.5"])
+    params = cli._params(cli.DenoiseParams, args)
+    assert (params.threshold, params.stages, params.edt_filter, params.importance, params.skeleton, params.k) == (
+        12.0, "foreground", "none", "estimate", "ima", 0.5)
+    args = parser.parse_args(["noise", "a.obj", "b.obj", "--p", "0.02", "--l", "1", "--dents"])
+    noise = cli._params(cli.NoiseParams, args)
+    assert (noise.p, noise.l, noise.dents) == (0.02, 1, True)

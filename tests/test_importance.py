@@ -1,0 +1,216 @@
+"""Importance measures against brute force: scipy's Dijkstra on an independently built graph."""
+
+import itertools
+
+import numba
+import numpy as np
+import pytest
+from scipy import ndimage, sparse
+from scipy.sparse import csgraph
+from scipy.spatial import cKDTree
+
+from skelfilter.errors import ParameterError
+from skelfilter.importance import (
+    boundary_layer,
+    euclidean_importance,
+    geodesic_estimate,
+    geodesic_importance,
+)
+
+
+def _coords(n):
+    return np.meshgrid(*(np.arange(n),) * 3, indexing="ij")
+
+
+def ball_and_box():
+    x, y, z = _coords(40)
+    ball = (x - 20) ** 2 + (y - 20) ** 2 + (z - 20) ** 2 <= 100
+    box = (x >= 4) & (x < 36) & (y >= 17) & (y < 23) & (z >= 6) & (z < 12)
+    return ball | box
+
+
+def torus():
+    x, y, z = _coords(40)
+    return (np.hypot(x - 19.5, y - 19.5) - 12) ** 2 + (z - 19.5) ** 2 <= 25
+
+
+def blobs():
+    # Several components, some cut by the volume's faces.
+    noise = ndimage.gaussian_filter(np.random.default_rng(7).standard_normal((36, 36, 36)), 3, mode="wrap")
+    return noise > 0.5 * noise.std()
+
+
+def ball(n, radius):
+    x, y, z = _coords(n)
+    c = (n - 1) / 2
+    return (x - c) ** 2 + (y - c) ** 2 + (z - c) ** 2 <= radius**2
+
+
+def graph_geodesics(boundary, a, b):
+    """Dijkstra over M's 26-graph: voxels within sqrt(3) of each other, weighted by their distance."""
+    nodes = np.argwhere(boundary)
+    tree = cKDTree(nodes)
+    pairs = tree.query_pairs(np.sqrt(3) + 1e-6, output_type="ndarray")
+    w = np.linalg.norm(nodes[pairs[:, 0]] - nodes[pairs[:, 1]], axis=1)
+    g = sparse.coo_matrix((w, (pairs[:, 0], pairs[:, 1])), shape=(len(nodes),) * 2).tocsr()
+    flat = np.flatnonzero(boundary)
+    ia, ib = np.searchsorted(flat, a), np.searchsorted(flat, b)
+    sources, row = np.unique(ia, return_inverse=True)
+    return csgraph.dijkstra(g, directed=False, indices=sources)[row, ib]
+
+
+def random_pairs(boundary, reach, n_sources=60, per_source=10, seed=0):
+    """Pairs of M voxels, mostly within ``reach`` of each other."""
+    rng = np.random.default_rng(seed)
+    flat = np.flatnonzero(boundary)
+    nodes = np.argwhere(boundary)
+    tree = cKDTree(nodes)
+    a, b = [], []
+    for i in rng.choice(len(nodes), n_sources, replace=False):
+        near = tree.query_ball_point(nodes[i], reach)
+        far = rng.integers(0, len(nodes), 2)
+        a += [flat[i]] * per_source
+        b += list(flat[rng.choice(near, per_source - 2)]) + list(flat[far])
+    return np.array(a), np.array(b)
+
+
+@pytest.mark.parametrize("make", [ball_and_box, torus, blobs])
+@pytest.mark.parametrize("cap", [20.0, 1000.0])
+def test_geodesic_equals_dijkstra(make, cap):
+    m = boundary_layer(make())
+    a, b = random_pairs(m, reach=min(1.3 * cap, 40))
+    rho, expanded = geodesic_importance(m, a, b, cap)
+    truth = graph_geodesics(m, a, b)
+    below = truth < cap - 1e-3
+    assert below.sum() > 100
+    np.testing.assert_allclose(rho[below], truth[below], rtol=0, atol=1e-4)
+    assert np.all(rho[truth >= cap] == np.float32(cap))
+    assert rho.dtype == np.float32 and expanded.dtype == np.int32
+    if cap == 20.0:
+        assert (truth >= cap).sum() > 50
+
+
+def test_blobs_have_unreachable_pairs():
+    # Guards the previous test: some pairs of the blobs lie in different components.
+    m = boundary_layer(blobs())
+    a, b = random_pairs(m, reach=40)
+    assert np.isinf(graph_geodesics(m, a, b)).sum() > 20
+
+
+def test_disconnected_components_give_cap_after_exhausting_the_component():
+    x = np.zeros((40, 30, 30), dtype=bool)
+    x[5:15, 10:20, 10:20] = True
+    x[18:28, 10:20, 10:20] = True  # 3 empty voxels between: the two layers do not touch
+    m = boundary_layer(x)
+    shape = m.shape
+    a = np.ravel_multi_index([[15], [12], [12]], shape)
+    b = np.ravel_multi_index([[17], [12], [12]], shape)
+    rho, expanded = geodesic_importance(m, a, b, 1000.0)
+    assert rho[0] == 1000.0
+    labels, _ = ndimage.label(m, structure=np.ones((3, 3, 3)))
+    assert labels.reshape(-1)[a[0]] != labels.reshape(-1)[b[0]]
+    # With a cap no path reaches, every voxel of a's component is settled once.
+    assert expanded[0] == (labels == labels.reshape(-1)[a[0]]).sum()
+
+
+def test_identical_duplicate_and_swapped_pairs():
+    m = boundary_layer(torus())
+    a, b = random_pairs(m, reach=25, n_sources=20)
+    rho, expanded = geodesic_importance(m, a, b, 24.0)
+    both = geodesic_importance(m, np.r_[a, b, a, a], np.r_[b, a, b, a], 24.0)
+    for value, again in zip((rho, expanded), both):
+        n = len(a)
+        assert np.array_equal(again[:n], value)
+        assert np.array_equal(again[n : 2 * n], value)
+        assert np.array_equal(again[2 * n : 3 * n], value)
+    assert np.all(both[0][3 * n :] == 0) and np.all(both[1][3 * n :] == 0)
+
+
+def test_expansions_only_where_a_search_ran():
+    m = boundary_layer(ball_and_box())
+    a, b = random_pairs(m, reach=40, per_source=20)
+    a = np.r_[a, a[:30]]
+    b = np.r_[b, a[:30]]
+    cap = 18.0
+    rho, expanded = geodesic_importance(m, a, b, cap)
+    chord = euclidean_importance(m.shape, a, b)
+    assert np.all(expanded[(a == b) | (chord >= cap)] == 0)
+    assert np.all(rho[chord >= cap] == np.float32(cap))
+    found = (a != b) & (rho < cap)
+    assert found.sum() > 100 and np.all(expanded[found] >= 2)
+
+
+def test_same_answer_on_any_number_of_threads():
+    m = boundary_layer(blobs())
+    a, b = random_pairs(m, reach=30)
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = geodesic_importance(m, a, b, 25.0)
+    finally:
+        numba.set_num_threads(before)
+    many = geodesic_importance(m, a, b, 25.0)
+    assert np.array_equal(one[0], many[0]) and np.array_equal(one[1], many[1])
+
+
+def test_geodesic_input_errors():
+    m = boundary_layer(ball(20, 6))
+    on = np.flatnonzero(m)[:2]
+    off = np.flatnonzero(~m)[:2]
+    with pytest.raises(ParameterError):
+        geodesic_importance(m, on, on, 0.0)
+    with pytest.raises(ParameterError):
+        geodesic_importance(m, on, off, 10.0)
+    with pytest.raises(ParameterError):
+        geodesic_importance(m, on, on[:1], 10.0)
+    rho, expanded = geodesic_importance(m, on[:0], on[:0], 10.0)
+    assert rho.shape == expanded.shape == (0,)
+
+
+def test_estimate_is_euclidean_on_a_flat_face():
+    x = np.zeros((40, 40, 40), dtype=bool)
+    x[8:32, 8:32, 16:24] = True
+    d = ndimage.distance_transform_edt(x).astype(np.float32)
+    m = boundary_layer(x)
+    face = np.c_[np.argwhere(m[:, :, 24]), np.full(m[:, :, 24].sum(), 24)]
+    rng = np.random.default_rng(3)
+    a = np.ravel_multi_index(face[rng.integers(0, len(face), 300)].T, x.shape)
+    b = np.ravel_multi_index(face[rng.integers(0, len(face), 300)].T, x.shape)
+    est = geodesic_estimate(d, a, b)
+    np.testing.assert_allclose(est, euclidean_importance(x.shape, a, b), rtol=1e-5)
+    assert est.dtype == np.float32
+
+
+def test_estimate_on_a_ball_lies_between_euclidean_and_graph_geodesic():
+    x = ball(40, 14)
+    d = ndimage.distance_transform_edt(x).astype(np.float32)
+    m = boundary_layer(x)
+    a, b = random_pairs(m, reach=22, n_sources=60)
+    keep = a != b
+    a, b = a[keep], b[keep]
+    est = geodesic_estimate(d, a, b)
+    chord = euclidean_importance(x.shape, a, b)
+    truth = graph_geodesics(m, a, b)
+    assert np.all(est >= chord * (1 - 1e-6))
+    assert np.abs(est - truth).mean() < np.abs(chord - truth).mean()
+    assert np.all(geodesic_estimate(d, a, a) == 0)
+
+
+def test_euclidean_importance():
+    shape = (5, 6, 7)
+    a = np.ravel_multi_index([[0, 1], [0, 2], [0, 3]], shape)
+    b = np.ravel_multi_index([[3, 1], [4, 2], [0, 3]], shape)
+    out = euclidean_importance(shape, a, b)
+    assert out.dtype == np.float32
+    assert out.tolist() == [5.0, 0.0]
+
+
+def test_boundary_layer_matches_its_definition():
+    x = np.random.default_rng(1).random((12, 11, 10)) < 0.15
+    m = boundary_layer(x)
+    expected = np.zeros_like(x)
+    for i, j, k in itertools.product(*map(range, x.shape)):
+        if not x[i, j, k]:
+            expected[i, j, k] = x[max(i - 1, 0) : i + 2, max(j - 1, 0) : j + 2, max(k - 1, 0) : k + 2].any()
+    assert m.dtype == bool
+    assert np.array_equal(m, expected)

@@ -1,0 +1,121 @@
+"""Derivative measure and rho+ against brute force and hand-checked cases."""
+
+import numpy as np
+
+from skelfilter.neighbourhood import ravel, unravel
+from skelfilter.saliency import derivative_measure, feature_velocity, rho_plus, skeleton_adjacency
+
+
+def random_voxels(shape=(12, 13, 14), n=300, seed=0):
+    rng = np.random.default_rng(seed)
+    inner = np.argwhere(np.ones(tuple(s - 2 for s in shape), bool)) + 1
+    pick = inner[rng.choice(len(inner), n, replace=False)]
+    return np.sort(ravel(pick, shape))
+
+
+def test_adjacency_matches_brute_force():
+    shape = (12, 13, 14)
+    s = random_voxels(shape)
+    indptr, indices = skeleton_adjacency(s, shape)
+    c = unravel(s, shape)
+    cheb = np.abs(c[:, None, :] - c[None, :, :]).max(-1)
+    brute = (cheb == 1)
+    for i in range(len(s)):
+        assert sorted(indices[indptr[i]:indptr[i + 1]].tolist()) == np.flatnonzero(brute[i]).tolist()
+
+
+def brute_rho_plus(rho, sigma, adjacency_sets, k):
+    order = sorted(range(len(rho)), key=lambda i: (-rho[i], i))
+    out = {}
+    for r, i in enumerate(order):
+        if r == 0 or (not np.isnan(sigma[i]) and sigma[i] <= k):
+            out[i] = rho[i]
+            continue
+        done = [out[j] for j in adjacency_sets[i] if j in out]
+        out[i] = max(done) if done else rho[i]
+    return np.array([out[i] for i in range(len(rho))], dtype=np.float32)
+
+
+def test_rho_plus_matches_recursion_of_eq_5_6():
+    shape = (12, 13, 14)
+    s = random_voxels(shape, n=500, seed=1)
+    indptr, indices = skeleton_adjacency(s, shape)
+    rng = np.random.default_rng(2)
+    rho = rng.integers(0, 30, len(s)).astype(np.float32)  # many ties
+    sigma = rng.normal(1.0, 1.0, len(s)).astype(np.float32)
+    sigma[rng.random(len(s)) < 0.1] = np.nan
+    adj = [set(indices[indptr[i]:indptr[i + 1]].tolist()) for i in range(len(s))]
+    got = rho_plus(rho, sigma, (indptr, indices), k=0.9)
+    assert np.array_equal(got, brute_rho_plus(rho, sigma, adj, 0.9))
+    assert (got >= rho).all()
+
+
+def line_skeleton(shape, xs, y, z):
+    return ravel(np.array([(x, y, z) for x in xs]), shape)
+
+
+def test_rho_plus_separates_a_ligature_branch():
+    # A core branch along x whose importance grows to the root, and a side
+    # branch along y with constant importance (a ligature, sigma_bar = 0).
+    shape = (30, 30, 5)
+    core = [(x, 5, 2) for x in range(2, 25)]
+    side = [(15, y, 2) for y in range(6, 20)]
+    coords = np.array(core + side)
+    s = ravel(coords, shape)
+    order = np.argsort(s)
+    s, coords = s[order], coords[order]
+    is_core = coords[:, 1] == 5
+    rho = np.where(is_core, 10.0 + coords[:, 0], 8.0).astype(np.float32)
+    sigma = np.where(is_core, 2.0, 0.0).astype(np.float32)
+    rp = rho_plus(rho, sigma, skeleton_adjacency(s, shape), k=0.9)
+    assert np.all(rp[is_core] == rho.max())
+    assert np.all(rp[~is_core] == 8.0)
+    kept = rp >= 18
+    assert kept[is_core].all() and not kept[~is_core].any()
+
+
+def sheet(shape, z):
+    xs, ys = np.meshgrid(np.arange(3, shape[0] - 3), np.arange(3, shape[1] - 3), indexing="ij")
+    c = np.stack([xs.ravel(), ys.ravel(), np.full(xs.size, z)], axis=1)
+    return ravel(c, shape), c
+
+
+def test_derivative_measure_on_sheets():
+    shape = (20, 18, 9)
+    s, c = sheet(shape, 4)
+    x = np.arange(shape[0], dtype=np.float32)[:, None, None]
+    distance = np.broadcast_to(x, shape).copy()  # D grows along x with unit slope
+    v = np.tile(np.array([[1.0, 0.0, 0.0]], np.float32), (len(s), 1))
+    adj = skeleton_adjacency(s, shape)
+    interior = (c[:, 0] > 3) & (c[:, 0] < shape[0] - 4) & (c[:, 1] > 3) & (c[:, 1] < shape[1] - 4)
+    # corner-like branch: rho = 2 D  ->  sigma_bar = 2
+    sig = derivative_measure(2.0 * c[:, 0].astype(np.float32), distance, s, v, adj, guard=0.1)
+    assert np.allclose(sig[interior], 2.0, atol=1e-2)
+    # ligature: rho constant while D grows -> sigma_bar = 0
+    sig = derivative_measure(np.full(len(s), 7.0, np.float32), distance, s, v, adj, guard=0.1)
+    assert np.allclose(sig[interior], 0.0, atol=1e-6)
+    # the sheet's rim ahead of v has no skeleton voxel to step to: undefined
+    assert np.isnan(sig[c[:, 0] == c[:, 0].max()]).all()
+    # v across the growth of D: the guard of eq. 4.3 leaves it undefined
+    v_side = np.tile(np.array([[0.0, 1.0, 0.0]], np.float32), (len(s), 1))
+    sig = derivative_measure(2.0 * c[:, 0].astype(np.float32), distance, s, v_side, adj, guard=0.1)
+    assert np.isnan(sig).all()
+
+
+def test_derivative_ignores_off_skeleton_voxels():
+    # rho only exists on the sheet; a voxel next to the sheet with "zero rho"
+    # must not pull the gradient: result equals the sheet-only slope.
+    shape = (20, 18, 9)
+    s, c = sheet(shape, 4)
+    distance = np.broadcast_to(np.arange(shape[0], dtype=np.float32)[:, None, None], shape).copy()
+    v = np.tile(np.array([[1.0, 0.0, 0.5]], np.float32), (len(s), 1))
+    sig = derivative_measure(3.0 * c[:, 0].astype(np.float32), distance, s, v, skeleton_adjacency(s, shape))
+    interior = (c[:, 0] > 3) & (c[:, 0] < shape[0] - 4) & (c[:, 1] > 3) & (c[:, 1] < shape[1] - 4)
+    assert np.allclose(sig[interior], 3.0, atol=1e-2)
+
+
+def test_feature_velocity_is_eq_4_16():
+    shape = (10, 10, 10)
+    s = ravel(np.array([[5, 5, 5]]), shape)
+    v = feature_velocity(s, shape, np.array([[2, 5, 2]]), np.array([[2, 5, 8]]))
+    assert np.allclose(v, [[3, 0, 0]])
