@@ -14,6 +14,7 @@ import math
 
 import numba
 import numpy as np
+from scipy import ndimage
 from numba import njit, prange
 
 from .errors import ParameterError
@@ -83,6 +84,16 @@ def geodesic_estimate(distance, a, b):
     return _estimate(distance, unravel(a, shape), unravel(b, shape))
 
 
+def disconnected_pairs(boundary, a, b):
+    """True where ``a[i]`` and ``b[i]`` lie in different 26-components of ``boundary``.
+
+    Their geodesic is infinite: in the background stage, a skeleton voxel
+    between the object and the box's frame has one feature point on each.
+    """
+    labels = ndimage.label(boundary, structure=np.ones((3, 3, 3), bool))[0].reshape(-1)
+    return labels[a] != labels[b]
+
+
 def geodesic_importance(boundary, a, b, cap):
     """Shortest-path length between feature points in the boundary layer's 26-graph, capped.
 
@@ -148,7 +159,10 @@ def geodesic_importance(boundary, a, b, cap):
 
     rho = np.where(source == target, 0.0, cap).astype(np.float32)
     expanded = np.zeros(len(key), np.int32)
-    run = np.flatnonzero((source != target) & (lower < np.float32(cap)))
+    # Pairs in different components of M (e.g. the object and the box's frame
+    # in the background stage) would search the whole cap ellipse in vain.
+    connected = ~disconnected_pairs(boundary, nodes[source], nodes[target])
+    run = np.flatnonzero((source != target) & (lower < np.float32(cap)) & connected)
     if len(run):
         indptr, indices = _graph(boundary, coords)
         n_chunks = min(numba.get_num_threads(), len(run))

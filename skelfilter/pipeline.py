@@ -73,10 +73,15 @@ def saliency_stage(volume, params, progress):
             rho, expansions = importance.geodesic_importance(
                 importance.boundary_layer(volume), a_flat, b_flat, params.cap_voxels
             )
-        elif params.importance == "estimate":
-            rho = importance.geodesic_estimate(distance, a_flat, b_flat)
         else:
-            rho = importance.euclidean_importance(shape, a_flat, b_flat)
+            if params.importance == "estimate":
+                rho = importance.geodesic_estimate(distance, a_flat, b_flat)
+            else:
+                rho = importance.euclidean_importance(shape, a_flat, b_flat)
+            # Feature points on separate surfaces (object and frame) are
+            # infinitely far apart along the boundary, whatever the proxy says.
+            far = importance.disconnected_pairs(importance.boundary_layer(volume), a_flat, b_flat)
+            rho[far] = np.float32(params.cap_voxels)
     with progress.step("derivative measure"):
         adjacency = saliency.skeleton_adjacency(voxels, shape)
         if params.velocity == "feature":
@@ -130,6 +135,11 @@ def denoise_padded(volume, params, progress):
         result.stages["foreground"] = stage
         current = stage.mask
         field = stage.field
+    if not current.any():
+        raise InputError(
+            f"nothing is left after pruning at threshold t = {params.threshold_voxels:g} voxels: "
+            "the whole shape is thinner than the noise scale; lower --threshold or raise --resolution"
+        )
     if params.stages in ("both", "background"):
         # The background lives inside the box; the box's outer layer stands
         # for the infinite outside so the background set is bounded (eq. 3.4).
@@ -138,12 +148,24 @@ def denoise_padded(volume, params, progress):
         with progress.stage("background"):
             stage = saliency_stage(~current & ~frame, params, progress)
         result.stages["background"] = stage
-        current = ~stage.mask & ~frame
-        field = -stage.field
-        field[frame] = -1.0
+        # Filling dents never reaches past the shape's bounding box; outside
+        # it the background's reconstruction only misses the frame's own
+        # edges (cut by the EDT filter), which are not part of the shape.
+        box = _bounding_box(current)
+        current = np.zeros_like(current)
+        current[box] = ~stage.mask[box]
+        margin = tuple(slice(b.start - 1, b.stop + 1) for b in box)
+        field = np.full(current.shape, -1.0, dtype=np.float32)
+        field[margin] = -stage.field[margin]
     result.mask = current
     result.field = field
     return result
+
+
+def _bounding_box(mask):
+    """Slices of the smallest box holding every set voxel."""
+    idx = np.argwhere(mask)
+    return tuple(slice(lo, hi + 1) for lo, hi in zip(idx.min(axis=0), idx.max(axis=0)))
 
 
 def denoise_volume(volume, params=None, progress=None, **overrides):

@@ -1,13 +1,13 @@
 """Mesh to occupancy volume, robust to open and unmerged meshes.
 
-A voxel is inside when its centre is inside the mesh. Inside/outside is
-decided by ray-parity voting: along each of the three axes one ray is shot
-per grid line, every triangle crossing of it is found, and the voxels
-between the 1st and 2nd, 3rd and 4th, ... crossings are inside for that
-axis. A ray that crosses the surface an odd number of times went through a
-hole and casts no vote. Each voxel takes the majority of the valid votes.
-Parity only needs the surface's geometry, so a triangle soup (duplicated
-seam vertices, no shared topology) voxelizes like the merged mesh.
+A voxel is inside when its centre is inside the mesh, as told by ray-parity
+votes along the three axes: one ray per grid line, whose crossings with the
+triangles are found by rasterizing each triangle's projection onto the
+lattice of rays; the voxels between the 1st and 2nd, 3rd and 4th, ...
+crossings are inside for that axis. A ray with an odd number of crossings
+went through a hole and does not vote. Parity needs only the surface's
+geometry, so a triangle soup (duplicated seam vertices, no shared topology,
+any winding) voxelizes like the merged mesh.
 """
 
 from dataclasses import dataclass
@@ -17,7 +17,7 @@ import trimesh
 from numba import njit, prange
 
 from .errors import InputError, ParameterError
-from .neighbourhood import OFFSETS_6, OFFSETS_26
+from .neighbourhood import OFFSETS_6
 
 # Rays run at this sub-voxel offset (in voxels) from the voxel centres so
 # that they practically never meet a triangle edge or vertex exactly.
@@ -25,7 +25,7 @@ _NUDGE = 1e-6 * np.sqrt([2.0, 3.0])
 
 # Voxel states between the votes and the occupancy; bit 0 means inside.
 _OUT, _IN = 0, 1  # three valid rays, unanimous
-_WEAK_OUT, _WEAK_IN = 2, 3  # a majority of two or three valid rays, not unanimous
+_WEAK_OUT, _WEAK_IN = 2, 3  # any other majority of valid rays, or settled along the rays
 _UNDECIDED = 4  # a tie, or fewer than two valid rays
 
 
@@ -170,13 +170,19 @@ def voxelize_on_grid(mesh, grid):
 
     Notes
     -----
-    A voxel is inside when more valid axes say inside than outside. Ties
-    (one axis for, one against, or no valid axis) are settled along the
-    voxel's z ray: the stretch of it between two consecutive crossings does
-    not cross the surface, so its voxels share one true state, and the
-    undecided ones take the majority decision of the decided ones there
-    (outside when that is a tie too). Time is linear in the number of voxels
-    plus the number of ray/triangle crossings.
+    A voxel whose three rays are valid and agree is certain. Otherwise it
+    takes the majority of two or three valid votes; failing that (a tie, or
+    one valid ray at most, which happens only next to holes) it looks along
+    its three rays: the surface is not crossed between two consecutive
+    crossings, so the voxels of such a stretch share one true state, and the
+    voxel takes the sign of the summed mean decision (+1 inside, -1 outside)
+    of the decided voxels of its three stretches, outside on a zero sum.
+    Last, the outside voxels that are not certain and are cut off (through
+    face neighbours) from the certain outside and the grid's border would be
+    cavities made next to holes: they are filled. Voids of a closed mesh are
+    certain and stay. Time is linear in the number of voxels plus the number
+    of ray/triangle crossings; memory is one byte per voxel plus per-ray
+    arrays.
     """
     return _occupancy(_triangles(mesh), grid)
 
@@ -224,8 +230,7 @@ def _occupancy(triangles, grid):
         flat[undecided] = np.where(score > 0, _WEAK_IN, _WEAK_OUT)
     weak = np.flatnonzero(flat >= _WEAK_OUT)
     if weak.size:
-        _anchor(votes, weak, OFFSETS_6, _WEAK_OUT, _OUT, True)
-        _anchor(votes, weak, OFFSETS_26, _WEAK_IN, _IN, False)
+        _seal(votes, weak)
     return votes.view(np.bool_)
 
 
@@ -266,9 +271,9 @@ def _scan(us, vs, ws, nu, nv, slot, hits):
                 wa = _orient(bx, by, cx, cy, p, q) * sa
                 wb = _orient(cx, cy, ax, ay, p, q) * sb
                 wc = _orient(ax, ay, bx, by, p, q) * sc
-                # A ray exactly on an edge goes to the triangle on the edge's positive side.
                 if wa < 0 or wb < 0 or wc < 0:
                     continue
+                # A ray exactly on an edge goes to the triangle on the edge's positive side.
                 if (wa == 0 and sa < 0) or (wb == 0 and sb < 0) or (wc == 0 and sc < 0):
                     continue
                 ray = p * nv + q
@@ -353,26 +358,26 @@ def _stretch_score(states, hits, start, strides, undecided, score):
 
 
 @njit(cache=True)
-def _anchor(states, weak, offsets, loose, anchor, border_anchors):
-    """Settle the weak voxels of state ``loose`` by connectivity, in place.
+def _seal(states, weak):
+    """Settle the ``weak`` voxels (sorted flat indices) to 0 or 1, in place.
 
-    Those joined to a voxel of state ``anchor`` (or, with ``border_anchors``,
-    to the grid's border) by ``offsets`` steps through ``loose`` voxels take
-    state ``anchor``; the others, cut off from it, take the opposite side.
+    Weak-outside voxels joined by face steps through weak-outside voxels to
+    a certain-outside voxel or to the grid's border are outside; the others
+    enclose nothing but a cavity made by the votes next to a hole, and are
+    filled.
     """
     nx, ny, nz = states.shape
     flat = states.reshape(-1)
     queue = np.empty(weak.size, dtype=np.int64)
     tail = 0
     for f in weak:
-        if flat[f] != loose:
+        if flat[f] != _WEAK_OUT:
             continue
         i, j, k = f // (ny * nz), f // nz % ny, f % nz
-        for o in range(offsets.shape[0]):
-            a, b, c = i + offsets[o, 0], j + offsets[o, 1], k + offsets[o, 2]
-            inside_grid = 0 <= a < nx and 0 <= b < ny and 0 <= c < nz
-            if (inside_grid and states[a, b, c] == anchor) or (not inside_grid and border_anchors):
-                flat[f] = anchor
+        for o in range(6):
+            a, b, c = i + OFFSETS_6[o, 0], j + OFFSETS_6[o, 1], k + OFFSETS_6[o, 2]
+            if not (0 <= a < nx and 0 <= b < ny and 0 <= c < nz) or states[a, b, c] == _OUT:
+                flat[f] = _OUT
                 queue[tail] = f
                 tail += 1
                 break
@@ -381,12 +386,11 @@ def _anchor(states, weak, offsets, loose, anchor, border_anchors):
         f = queue[head]
         head += 1
         i, j, k = f // (ny * nz), f // nz % ny, f % nz
-        for o in range(offsets.shape[0]):
-            a, b, c = i + offsets[o, 0], j + offsets[o, 1], k + offsets[o, 2]
-            if 0 <= a < nx and 0 <= b < ny and 0 <= c < nz and states[a, b, c] == loose:
-                states[a, b, c] = anchor
+        for o in range(6):
+            a, b, c = i + OFFSETS_6[o, 0], j + OFFSETS_6[o, 1], k + OFFSETS_6[o, 2]
+            if 0 <= a < nx and 0 <= b < ny and 0 <= c < nz and states[a, b, c] == _WEAK_OUT:
+                states[a, b, c] = _OUT
                 queue[tail] = (a * ny + b) * nz + c
                 tail += 1
     for f in weak:
-        if flat[f] == loose:
-            flat[f] = anchor ^ 1
+        flat[f] = _IN if flat[f] == _WEAK_OUT else flat[f] & 1

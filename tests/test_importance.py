@@ -97,7 +97,7 @@ def test_blobs_have_unreachable_pairs():
     assert np.isinf(graph_geodesics(m, a, b)).sum() > 20
 
 
-def test_disconnected_components_give_cap_after_exhausting_the_component():
+def test_disconnected_components_give_cap_without_searching():
     x = np.zeros((40, 30, 30), dtype=bool)
     x[5:15, 10:20, 10:20] = True
     x[18:28, 10:20, 10:20] = True  # 3 empty voxels between: the two layers do not touch
@@ -109,8 +109,12 @@ def test_disconnected_components_give_cap_after_exhausting_the_component():
     assert rho[0] == 1000.0
     labels, _ = ndimage.label(m, structure=np.ones((3, 3, 3)))
     assert labels.reshape(-1)[a[0]] != labels.reshape(-1)[b[0]]
-    # With a cap no path reaches, every voxel of a's component is settled once.
-    assert expanded[0] == (labels == labels.reshape(-1)[a[0]]).sum()
+    # Components are labelled first: no search runs for a pair that cannot connect.
+    assert expanded[0] == 0
+    # ... while a pair inside one component is still searched.
+    c = np.ravel_multi_index([[4], [12], [12]], shape)
+    rho, expanded = geodesic_importance(m, a, c, 1000.0)
+    assert 0 < rho[0] < 1000.0 and expanded[0] > 0
 
 
 def test_identical_duplicate_and_swapped_pairs():
