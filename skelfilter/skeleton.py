@@ -34,8 +34,10 @@ def ima_skeleton(volume, features):
     """Integer medial axis (IMA) skeleton, eq. 7.1–7.2.
 
     ``x`` is a skeleton voxel when, for some face neighbour ``x + e`` in X,
-    the feature points differ by at least 1 (eq. 7.1) and ``f(x + e)`` is no
-    farther than ``f(x)`` from the midpoint ``m = x + e/2`` (eq. 7.2).
+    the feature points are more than 1 apart (eq. 7.1; the text reads
+    "larger than one": with ``>= 1`` any two distinct integer feature points
+    qualify and a cube would be all skeleton) and ``f(x + e)`` is no farther
+    than ``f(x)`` from the midpoint ``m = x + e/2`` (eq. 7.2).
     """
     shape = volume.shape
     flat = volume.reshape(-1)
@@ -48,7 +50,7 @@ def ima_skeleton(volume, features):
         both = flat[neighbour]
         fy = features[(slice(None),) + np.unravel_index(neighbour[both], shape)].T.astype(np.int64)
         fxb = fx[both]
-        apart = ((fy - fxb) ** 2).sum(axis=1) >= 1  # eq. 7.1
+        apart = ((fy - fxb) ** 2).sum(axis=1) > 1  # eq. 7.1
         m2 = 2 * x[both] + e  # twice the midpoint keeps the test in integers
         closer = ((m2 - 2 * fy) ** 2).sum(axis=1) <= ((m2 - 2 * fxb) ** 2).sum(axis=1)  # eq. 7.2
         is_skeleton[np.flatnonzero(both)[apart & closer]] = True

@@ -237,8 +237,8 @@ def _occupancy(triangles, grid):
 @njit(cache=True)
 def _orient(ax, ay, bx, by, px, py):
     # Twice the signed area of (a, b, p) with a, b taken in lexicographic
-    # order: the triangles sharing an edge then see bit-identical values at a
-    # ray next to it, so exactly one of them claims the ray.
+    # order: the triangles sharing an edge see bit-identical values at a ray
+    # next to it, so rounding never lets both or neither claim the ray.
     if ax > bx or (ax == bx and ay > by):
         ax, ay, bx, by = bx, by, ax, ay
     return (bx - ax) * (py - ay) - (by - ay) * (px - ax)
@@ -262,6 +262,13 @@ def _scan(us, vs, ws, nu, nv, slot, hits):
         sc = np.sign(_orient(ax, ay, bx, by, cx, cy))
         if sa == 0 or sb == 0 or sc == 0:
             continue  # projects to a segment: parallel to the rays
+        # A ray exactly on an edge's line is decided as if moved by (d**2, d),
+        # d -> 0+: onto the positive side of the edge, or the negative side if
+        # the edge is parallel to v. One move for all edges, so a ray through
+        # a shared edge or vertex is claimed by exactly one triangle.
+        ta = sa == (1 if bx != cx else -1)
+        tb = sb == (1 if cx != ax else -1)
+        tc = sc == (1 if ax != bx else -1)
         p0 = max(int(np.ceil(min(ax, bx, cx))), 0)
         p1 = min(int(np.floor(max(ax, bx, cx))), nu - 1)
         q0 = max(int(np.ceil(min(ay, by, cy))), 0)
@@ -273,8 +280,7 @@ def _scan(us, vs, ws, nu, nv, slot, hits):
                 wc = _orient(ax, ay, bx, by, p, q) * sc
                 if wa < 0 or wb < 0 or wc < 0:
                     continue
-                # A ray exactly on an edge goes to the triangle on the edge's positive side.
-                if (wa == 0 and sa < 0) or (wb == 0 and sb < 0) or (wc == 0 and sc < 0):
+                if (wa == 0 and not ta) or (wb == 0 and not tb) or (wc == 0 and not tc):
                     continue
                 ray = p * nv + q
                 if fill:
@@ -318,7 +324,7 @@ def _decide(votes, valid_x, valid_y, valid_z):
                 bits = votes[i, j, k]
                 n_valid = valid_x[j, k] + valid_y[i, k] + valid_z[i, j]
                 n_in = (bits & 1) + ((bits >> 1) & 1) + (bits >> 2)
-                if n_valid < 2 or 2 * n_in == n_valid:
+                if 2 * n_in == n_valid:
                     votes[i, j, k] = _UNDECIDED
                 elif n_valid == 3 and (n_in == 0 or n_in == 3):
                     votes[i, j, k] = _IN if n_in else _OUT

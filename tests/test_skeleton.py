@@ -79,7 +79,7 @@ def test_ima_skeleton_brute_force_rule():
                 continue
             fy = f[(slice(None),) + tuple(y)]
             m = x + 0.5 * np.array(e)
-            if np.sum((fy - fx) ** 2) >= 1 and np.sum((m - fy) ** 2) <= np.sum((m - fx) ** 2):
+            if np.sum((fy - fx) ** 2) > 1 and np.sum((m - fy) ** 2) <= np.sum((m - fx) ** 2):
                 brute.add(int(np.ravel_multi_index(tuple(x), v.shape)))
                 break
     assert s == brute

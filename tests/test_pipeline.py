@@ -1,0 +1,89 @@
+"""Thesis properties of the whole pipeline on real shapes (§3.1.3, §7.4)."""
+
+import numpy as np
+import pytest
+from conftest import cube_volume
+
+from skelfilter import add_noise, denoise_volume
+from skelfilter.distance import distance_and_features
+from skelfilter.pipeline import resolve_params, saliency_stage
+from skelfilter.progress import Progress
+from skelfilter.reconstruct import reconstruction, reverse_edt
+from skelfilter.skeleton import ie_skeleton
+from skelfilter.surface import SURFACE_OFFSET
+
+
+@pytest.fixture(scope="module")
+def cube_128():
+    return cube_volume(128, 8)
+
+
+@pytest.mark.parametrize("shape_name", ["cube_128", "fandisk_128"])
+def test_reverse_edt_reconstructions(shape_name, request):
+    x = request.getfixturevalue(shape_name)
+    d, _ = distance_and_features(x)
+    every = np.flatnonzero(x.reshape(-1))
+    radius = d.reshape(-1)[every]
+    # every foreground voxel with its own radius: exactly the input (eq. 7.25–7.27),
+    # with the thesis' radii D and with the pipeline's D - 1/2 alike
+    assert np.array_equal(reconstruction(reverse_edt(x.shape, every, radius)[0]), x)
+    assert np.array_equal(reconstruction(reverse_edt(x.shape, every, radius - SURFACE_OFFSET)[0]), x)
+    # the unpruned IE skeleton (eq. 7.7) nearly reconstructs the shape and never adds a voxel
+    s = ie_skeleton(d)
+    for offset, bound in ((0.0, 0.005), (SURFACE_OFFSET, 0.005)):
+        r = reconstruction(reverse_edt(x.shape, s, d.reshape(-1)[s] - offset)[0])
+        assert not (r & ~x).any()
+        assert (r ^ x).sum() / x.sum() <= bound
+
+
+@pytest.fixture(scope="module")
+def noisy_fandisk(fandisk_128):
+    return add_noise(fandisk_128, p=0.014, r=2.1, h=3, l=6, seed=7)
+
+
+def test_stage_one_is_anti_extensive(noisy_fandisk):
+    for edt_filter in ("none", "minify"):
+        stage = saliency_stage(noisy_fandisk.noisy, resolve_params(edt_filter=edt_filter), Progress(False))
+        assert not (stage.mask & ~noisy_fandisk.noisy).any()  # Lemma 7
+        assert stage.mask.sum() < noisy_fandisk.noisy.sum()
+        # the field's inside is the mask: the mesh and the voxels agree
+        assert np.array_equal(stage.field > 0, stage.mask)
+
+
+def test_second_pass_changes_almost_nothing(noisy_fandisk):
+    once = denoise_volume(noisy_fandisk.noisy).mask
+    twice = denoise_volume(once).mask
+    changed = (once ^ twice).sum() / once.sum()
+    assert changed <= 0.001  # Lemma 8 in practice
+
+
+def edge_band(x, width):
+    """Voxels of x within ``width`` of two faces of its bounding box (a cuboid's edges)."""
+    idx = np.argwhere(x)
+    lo, hi = idx.min(0), idx.max(0)
+    near = (np.minimum(idx - lo, hi - idx) < width).sum(axis=1) >= 2
+    band = np.zeros_like(x)
+    band[tuple(idx[near].T)] = True
+    return band
+
+
+def test_clean_shapes_pass_through(cube_128, fandisk_128):
+    for x in (cube_128, fandisk_128):
+        out = denoise_volume(x, edt_filter="none").mask
+        assert (out ^ x).sum() / x.sum() <= 0.005
+    # the cube's edges and corners are intact voxel for voxel
+    out = denoise_volume(cube_128, edt_filter="none").mask
+    band = edge_band(cube_128, 4)
+    assert np.array_equal(out[band], cube_128[band])
+
+
+def test_minification_cuts_corners_a_little(cube_128):
+    out = denoise_volume(cube_128).mask
+    lost = cube_128 & ~out
+    assert not (out & ~cube_128).any()
+    idx = np.argwhere(lost)
+    lo, hi = np.argwhere(cube_128).min(0), np.argwhere(cube_128).max(0)
+    # what is lost lies along edges and corners, within the filter radius
+    depth = np.sort(np.minimum(idx - lo, hi - idx), axis=1)[:, 1]
+    assert depth.max() <= 3
+    assert lost.sum() / cube_128.sum() < 0.002

@@ -1,0 +1,283 @@
+"""Tests of skelfilter.voxelize: the grid, exact shapes, and real open, unmerged and genus-1 meshes."""
+
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.ndimage as ndi
+from scipy.spatial import ConvexHull
+import trimesh
+from skimage.measure import euler_number
+
+from skelfilter.errors import InputError, ParameterError
+from skelfilter.neighbourhood import has_border_margin
+import skelfilter.voxelize as voxelize_module
+from skelfilter.voxelize import Grid, grid_for_bounds, voxelize, voxelize_on_grid
+
+DATA = Path(__file__).parent / "data"
+CUBE26 = np.ones((3, 3, 3), dtype=bool)
+
+
+def load(name):
+    path = resources.files("skelfilter") / "data" / name if name == "fandisk.obj" else DATA / name
+    return trimesh.load(str(path), process=False)
+
+
+def centres(grid):
+    return grid.to_world(np.indices(grid.shape).reshape(3, -1).T)
+
+
+def open3d_occupancy(mesh, points, nsamples):
+    """Occupancy by open3d's ray casting (Embree), an independent implementation."""
+    o3d = pytest.importorskip("open3d")
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(
+        o3d.core.Tensor(np.asarray(mesh.vertices, dtype=np.float32)),
+        o3d.core.Tensor(np.asarray(mesh.faces, dtype=np.uint32)),
+    )
+    query = o3d.core.Tensor(np.asarray(points, dtype=np.float32))
+    return scene.compute_occupancy(query, nsamples=nsamples).numpy().astype(bool)
+
+
+def n_components(volume):
+    return ndi.label(volume, CUBE26)[1]
+
+
+def is_closed(volume):
+    """No cavity: every background voxel reaches the border through face neighbours."""
+    return bool((ndi.binary_fill_holes(volume) == volume).all())
+
+
+# --- grid -------------------------------------------------------------------
+
+
+def test_grid_is_centred_and_padded():
+    bounds = np.array([[1.0, -2.0, 0.5], [5.0, 0.0, 1.5]])  # extents 4, 2, 1
+    grid = grid_for_bounds(bounds, 32, 3)
+    assert grid.pitch == 4 / 32
+    assert grid.shape == (32 + 6, 16 + 6, 8 + 6)
+    assert grid.n_voxels == 38 * 22 * 14
+    cells_lo = grid.to_world([0, 0, 0]) - grid.pitch / 2
+    cells_hi = grid.to_world(np.array(grid.shape) - 1) + grid.pitch / 2
+    np.testing.assert_allclose(cells_lo, bounds[0] - 3 * grid.pitch)
+    np.testing.assert_allclose(cells_hi, bounds[1] + 3 * grid.pitch)
+
+
+def test_grid_rounds_short_sides_up_and_keeps_the_longest_exact():
+    bounds = np.array([[0.0, 0.0, 0.0], [1.0, 0.3, 0.0]])  # a flat box: z has no extent
+    grid = grid_for_bounds(bounds, 16, 2)
+    assert grid.shape == (16 + 4, 5 + 4, 1 + 4)  # 0.3 * 16 = 4.8 -> 5 cells, z -> 1 cell
+    cells_centre = grid.to_world((np.array(grid.shape) - 1) / 2)
+    np.testing.assert_allclose(cells_centre, bounds.mean(axis=0), atol=1e-12)
+    # Extents that are not exact in binary still give `resolution` voxels.
+    for resolution in range(16, 700, 7):
+        assert grid_for_bounds([[0, 0, 0], [0.3, 0.1, 0.7]], resolution, 0).shape[2] == resolution
+
+
+def test_grid_round_trip_and_equality():
+    grid = Grid([0.5, -1.0, 2.0], 0.25, (10, 20, 30))
+    ijk = np.array([[0, 0, 0], [9, 19, 29], [1.5, 2.25, 3.0]])
+    np.testing.assert_allclose(grid.to_index(grid.to_world(ijk)), ijk)
+    np.testing.assert_allclose(grid.to_world([[2, 4, 4]]), [[1.0, 0.0, 3.0]])
+    same = Grid(np.array([0.5, -1.0, 2.0]), 0.25, [10, 20, 30])
+    assert grid == same and hash(grid) == hash(same)
+    assert grid != Grid([0.5, -1.0, 2.5], 0.25, (10, 20, 30))
+
+
+@pytest.mark.parametrize(
+    "bounds, resolution, padding",
+    [
+        ([[0, 0, 0], [1, 1, 1]], 15, 2),
+        ([[0, 0, 0], [1, 1, 1]], 32.0, 2),
+        ([[0, 0, 0], [1, 1, 1]], 32, -1),
+        ([[0, 0, 0], [0, 0, 0]], 32, 2),
+        ([[0, 0, 0], [np.nan, 1, 1]], 32, 2),
+        ([[0, 0, 0], [np.inf, 1, 1]], 32, 2),
+        ([[1, 1, 1], [0, 2, 2]], 32, 2),
+        ([0, 0, 0], 32, 2),
+    ],
+)
+def test_grid_rejects_bad_parameters(bounds, resolution, padding):
+    with pytest.raises(ParameterError):
+        grid_for_bounds(bounds, resolution, padding)
+
+
+def test_unusable_meshes_are_input_errors():
+    box = trimesh.creation.box()
+    grid = grid_for_bounds(box.bounds, 16, 1)
+    for bad in (np.nan, np.inf):
+        vertices = box.vertices.copy()
+        vertices[3, 1] = bad
+        mesh = trimesh.Trimesh(vertices, box.faces, process=False)
+        with pytest.raises(InputError, match="NaN or infinite"):
+            voxelize(mesh)
+        with pytest.raises(InputError, match="NaN or infinite"):
+            voxelize_on_grid(mesh, grid)
+    with pytest.raises(InputError, match="no faces"):
+        voxelize(trimesh.Trimesh())
+    with pytest.raises(InputError, match="no faces"):
+        voxelize(trimesh.Trimesh(box.vertices, np.zeros((0, 3), dtype=np.int64), process=False))
+    with pytest.raises(InputError, match="Trimesh"):
+        voxelize(trimesh.Scene([box]))
+
+
+# --- exact shapes -------------------------------------------------------------
+
+
+def test_axis_aligned_box_is_exact():
+    box = trimesh.creation.box(extents=(1.0, 2.0, 3.0))
+    volume, grid = voxelize(box, resolution=48, padding=4)
+    assert grid.shape == volume.shape == (16 + 8, 32 + 8, 48 + 8)
+    assert volume.dtype == bool
+    assert volume.sum() == 16 * 32 * 48 == round(box.volume / grid.pitch**3)
+    assert has_border_margin(volume, 4)
+    assert volume[4:-4, 4:-4, 4:-4].all()
+
+
+def test_rotated_box_matches_the_analytic_inside():
+    extents = np.array([1.0, 1.5, 2.5])
+    rotation = trimesh.transformations.rotation_matrix(0.7, [1.0, 2.0, 3.0], point=[0.1, 0.2, 0.3])
+    box = trimesh.creation.box(extents=extents, transform=rotation)
+    volume, grid = voxelize(box, resolution=64, padding=2)
+    local = (centres(grid) - rotation[:3, 3]) @ rotation[:3, :3]
+    expected = (np.abs(local) < extents / 2).all(axis=1).reshape(grid.shape)
+    assert np.array_equal(volume, expected)
+    assert volume.sum() * grid.pitch**3 == pytest.approx(box.volume, rel=5e-3)
+
+
+def test_icosphere_matches_its_half_spaces_and_volume():
+    sphere = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
+    volume, grid = voxelize(sphere, resolution=80, padding=2)
+    p = centres(grid)
+    # Convex: inside iff behind every face plane.
+    offsets = np.einsum("ij,ij->i", sphere.face_normals, sphere.triangles[:, 0])
+    expected = np.ones(len(p), dtype=bool)
+    for chunk in np.array_split(np.arange(len(p)), 16):
+        expected[chunk] = (p[chunk] @ sphere.face_normals.T < offsets).all(axis=1)
+    assert np.array_equal(volume, expected.reshape(grid.shape))
+    assert volume.sum() * grid.pitch**3 == pytest.approx(sphere.volume, rel=2e-3)
+
+
+@pytest.fixture(params=[True, False], ids=["nudged", "not-nudged"])
+def nudge(request, monkeypatch):
+    """Run with the rays' sub-voxel nudge, and without it to test the exact tie rule alone."""
+    if not request.param:
+        monkeypatch.setattr(voxelize_module, "_NUDGE", np.zeros(2))
+
+
+def test_rays_exactly_through_vertices_and_edges(nudge):
+    # An octahedron |x|+|y|+|z| < 10.5 whose vertices and edges lie on the
+    # un-nudged rays: every crossing must still be counted exactly once.
+    r = 10.5
+    vertices = np.array([[r, 0, 0], [-r, 0, 0], [0, r, 0], [0, -r, 0], [0, 0, r], [0, 0, -r]])
+    faces = [[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]]
+    octahedron = trimesh.Trimesh(vertices, faces, process=False)
+    grid = Grid([-12.0, -12.0, -12.0], 1.0, (25, 25, 25))
+    volume = voxelize_on_grid(octahedron, grid)
+    expected = np.abs(centres(grid)).sum(axis=1).reshape(grid.shape) < r
+    assert np.array_equal(volume, expected)
+
+
+def test_lattice_polytopes_are_exact(nudge):
+    # Convex hulls of integer points shifted by half a voxel along one axis:
+    # the rays along that axis run through vertices, the others along edges.
+    rng = np.random.default_rng(7)
+    grid = Grid([-10.0, -10.0, -10.0], 1.0, (21, 21, 21))
+    c = centres(grid)
+    for trial in range(30):
+        points = rng.integers(-8, 9, size=(30, 3)).astype(float)
+        points[:, trial % 3] += 0.5
+        hull = ConvexHull(points)
+        volume = voxelize_on_grid(trimesh.Trimesh(points, hull.simplices, process=False), grid)
+        signed = c @ hull.equations[:, :3].T + hull.equations[:, 3]
+        on_boundary = (np.abs(signed) < 1e-9).any(axis=1) & (signed < 1e-9).all(axis=1)
+        expected = (signed < 0).all(axis=1)
+        assert np.array_equal(volume.ravel()[~on_boundary], expected[~on_boundary])
+
+
+def test_winding_and_vertex_sharing_do_not_matter():
+    fandisk = load("fandisk.obj")
+    volume, grid = voxelize(fandisk, resolution=64)
+    rng = np.random.default_rng(0)
+    faces = fandisk.faces.copy()
+    flip = rng.random(len(faces)) < 0.5
+    faces[flip] = faces[flip, ::-1]
+    scrambled = trimesh.Trimesh(fandisk.vertices, faces[rng.permutation(len(faces))], process=False)
+    soup = trimesh.Trimesh(fandisk.triangles.reshape(-1, 3), np.arange(3 * len(faces)).reshape(-1, 3), process=False)
+    assert np.array_equal(voxelize_on_grid(scrambled, grid), volume)
+    assert np.array_equal(voxelize_on_grid(soup, grid), volume)
+
+
+def test_void_of_a_closed_mesh_stays_empty():
+    outer = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+    inner = trimesh.creation.icosphere(subdivisions=3, radius=0.5)
+    shell = trimesh.util.concatenate([outer, inner])
+    volume, grid = voxelize(shell, resolution=64)
+    void = ndi.binary_fill_holes(volume) & ~volume
+    assert void.sum() * grid.pitch**3 == pytest.approx(inner.volume, rel=0.02)
+    assert volume.sum() * grid.pitch**3 == pytest.approx(outer.volume - inner.volume, rel=0.01)
+
+
+def test_open_tube_fills_like_the_capped_cylinder():
+    capped = trimesh.creation.cylinder(radius=1.0, height=3.0, sections=64)
+    tube = trimesh.Trimesh(capped.vertices, capped.faces[np.abs(capped.face_normals[:, 2]) < 0.5], process=False)
+    assert not tube.is_watertight
+    volume, grid = voxelize(capped, resolution=64)
+    assert np.array_equal(voxelize_on_grid(tube, grid), volume)
+
+
+# --- real meshes ----------------------------------------------------------------
+
+
+def test_fandisk_agrees_with_open3d_ray_casting():
+    fandisk = load("fandisk.obj")
+    volume, grid = voxelize(fandisk, resolution=80, padding=2)
+    reference = open3d_occupancy(fandisk, centres(grid), nsamples=3).reshape(grid.shape)
+    assert (volume == reference).mean() >= 0.999
+    assert n_components(volume) == 1 and is_closed(volume)
+    assert euler_number(volume, connectivity=3) == 1
+
+
+@pytest.mark.parametrize("resolution", [96, 200])
+def test_open_bunny_is_one_closed_solid(resolution):
+    bunny = load("stanford-bunny.obj")
+    assert not bunny.is_watertight
+    volume, grid = voxelize(bunny, resolution=resolution)
+    assert n_components(volume) == 1
+    assert is_closed(volume)
+    assert has_border_margin(volume, 8)
+
+
+def test_open_bunny_has_the_right_volume_and_no_tunnel():
+    bunny = load("stanford-bunny.obj")
+    volume, grid = voxelize(bunny, resolution=96)
+    assert euler_number(volume, connectivity=3) == 1  # 1 component - 0 tunnels + 0 cavities
+    # Independent estimate: open3d's occupancy (majority of 5 random-direction
+    # rays per point) on the voxel centres of a coarser grid.
+    coarse = grid_for_bounds(bunny.bounds, 64, 2)
+    reference = open3d_occupancy(bunny, centres(coarse), nsamples=5).reshape(coarse.shape)
+    ours = voxelize_on_grid(bunny, coarse)
+    assert (ours == reference).mean() >= 0.995
+    assert volume.sum() * grid.pitch**3 == pytest.approx(reference.sum() * coarse.pitch**3, rel=0.02)
+
+
+def test_unmerged_spot_voxelizes_like_the_merged_mesh():
+    spot = load("spot.obj")
+    merged = spot.copy()
+    merged.merge_vertices(merge_tex=True, merge_norm=True)
+    assert not spot.is_watertight and merged.is_watertight
+    volume, grid = voxelize(spot, resolution=96)
+    assert np.array_equal(voxelize_on_grid(merged, grid), volume)
+    assert n_components(volume) == 1 and is_closed(volume)
+    assert volume.sum() * grid.pitch**3 == pytest.approx(merged.volume, rel=0.01)
+
+
+def test_rocker_arm_keeps_its_through_hole():
+    rocker = load("rocker-arm.obj")
+    volume, grid = voxelize(rocker, resolution=96)
+    assert n_components(volume) == 1 and is_closed(volume)
+    # Euler characteristic = components - tunnels + cavities = 1 - 1 + 0.
+    assert euler_number(volume, connectivity=3) == 0
+    assert euler_number(volume, connectivity=1) == 0
+    assert volume.sum() * grid.pitch**3 == pytest.approx(rocker.volume, rel=0.01)
