@@ -51,6 +51,14 @@ class DenoiseParams:
         "is never treated as ligature",
         "voxels",
     )
+    derivative_min_rho: float = _p(
+        5.0,
+        "below this importance rho the derivative measure is left undefined (like the guard l of "
+        "eq. 4.3): on structures a few voxels across, such as the voxel steps of slanted surfaces, "
+        "the grid's quantization of rho and D swamps sigma_bar; such voxels are never ligature and "
+        "take rho+ from any neighbour",
+        "voxels",
+    )
     stages: str = _p(
         "both",
         "which stages run: foreground removes bumps, background removes dents (§3.1.1)",
@@ -96,7 +104,7 @@ class DenoiseParams:
                 )
         if self.threshold_relative is not None and not 0 < self.threshold_relative < 1:
             raise ParameterError(f"threshold_relative must be in (0, 1), got {self.threshold_relative}")
-        for name in ("threshold", "minify_radius"):
+        for name in ("threshold", "minify_radius", "derivative_min_rho"):
             value = getattr(self, name)
             if not math.isfinite(value) or value < 0:
                 raise ParameterError(f"{name} must be a finite number >= 0, got {value}")

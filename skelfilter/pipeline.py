@@ -89,10 +89,16 @@ def saliency_stage(volume, params, progress):
         else:
             v = saliency.edt_gradient_velocity(distance, voxels)
         sigma_bar = saliency.derivative_measure(
-            rho, distance, voxels, v, adjacency, params.derivative_guard
+            rho, distance, voxels, v, adjacency, params.derivative_guard,
+            min_cosine=saliency.STREAM_COSINE, min_rho=params.derivative_min_rho,
         )
     with progress.step("rho+"):
-        rho_plus = saliency.rho_plus(rho, sigma_bar, adjacency, params.k)
+        # Eq. 5.6 restricted to the neighbours ahead along v, the cone that
+        # the derivative measure steps in (the streamlines of eq. 5.1).
+        rho_plus = saliency.rho_plus(
+            rho, sigma_bar, adjacency, params.k, velocity=v, skeleton=voxels, shape=shape,
+            min_cosine=saliency.STREAM_COSINE, min_rho=params.derivative_min_rho,
+        )
         kept = rho_plus >= params.threshold_voxels
         centres = voxels[kept]
     with progress.step("EDT filter"):

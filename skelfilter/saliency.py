@@ -11,6 +11,11 @@ import numpy as np
 from .distance import gradient_at
 from .neighbourhood import OFFSETS_26, flat_offsets, unravel
 
+# A skeleton step y - x counts as "along v" when its cosine with v(x) is at
+# least this: the cone the derivative measure steps in and that rho+ is
+# taken from (the discrete streamlines of eq. 5.1).
+STREAM_COSINE = 0.5
+
 
 def skeleton_adjacency(skeleton, shape):
     """26-adjacency among skeleton voxels as a CSR pair ``(indptr, indices)``.
@@ -51,7 +56,8 @@ def edt_gradient_velocity(distance, skeleton):
     return gradient_at(distance, skeleton)
 
 
-def derivative_measure(rho, distance, skeleton, velocity, adjacency, guard=0.1, min_cosine=0.5):
+def derivative_measure(rho, distance, skeleton, velocity, adjacency, guard=0.1, min_cosine=STREAM_COSINE,
+                       min_rho=0.0):
     """Derivative measure ``sigma_bar = (grad rho . v) / (grad D . v)`` (eq. 4.2).
 
     Both directional derivatives are taken along the same step on the
@@ -62,19 +68,31 @@ def derivative_measure(rho, distance, skeleton, velocity, adjacency, guard=0.1, 
     and of the step cancel, as in eq. 4.2. Inside a ligature sheet the step
     stays on voxels with the same feature points, so ``sigma_bar`` is 0.
 
+    Parameters
+    ----------
+    min_rho : float
+        Below this importance the measure is left undefined, like eq. 4.3's
+        guard. Geodesics and EDT values are quantized by the grid (steps of
+        1, sqrt 2, sqrt 3 and square roots of integers), so on structures a few
+        voxels across (the voxel steps of slanted or curved surfaces) the
+        one-step ratio is quantization noise, not the ligature signal.
+
     Returns
     -------
     sigma_bar : float32 ndarray
         NaN where ``D`` grows by less than ``guard`` per voxel along the step
-        (eq. 4.3), or where no skeleton neighbour lies ahead along ``v``:
-        there the measure is undefined and the voxel is never a ligature
-        candidate.
+        (eq. 4.3), where no skeleton neighbour lies ahead along ``v``, or where
+        ``rho < min_rho``: there the measure is undefined and the voxel is
+        never a ligature candidate.
     """
     indptr, indices = adjacency
     coords = unravel(skeleton, distance.shape).astype(np.float64)
     d_skel = distance.reshape(-1)[skeleton].astype(np.float64)
-    return _step_ratio(coords, np.asarray(rho, dtype=np.float64), d_skel,
-                       np.asarray(velocity, dtype=np.float64), indptr, indices, guard, min_cosine)
+    rho = np.asarray(rho, dtype=np.float64)
+    sigma = _step_ratio(coords, rho, d_skel, np.asarray(velocity, dtype=np.float64), indptr, indices,
+                        guard, min_cosine)
+    sigma[rho < min_rho] = np.nan
+    return sigma
 
 
 @numba.njit(cache=True, parallel=True)
@@ -105,21 +123,44 @@ def _step_ratio(coords, rho, dist, velocity, indptr, indices, guard, min_cosine)
     return out
 
 
-def rho_plus(rho, sigma_bar, adjacency, k=0.9):
-    """Global streamline importance ``rho+`` (eq. 5.6).
+def rho_plus(rho, sigma_bar, adjacency, k=0.9, velocity=None, skeleton=None, shape=None,
+             min_cosine=STREAM_COSINE, min_rho=0.0):
+    """Global streamline importance ``rho+`` (eq. 5.6), optionally along ``v`` (eq. 5.1).
 
     Voxels are visited in decreasing ``rho`` (ties by position). The first
     (the root) and every low-derivative voxel (``sigma_bar <= k``) keep
-    ``rho+ = rho``; any other takes the largest ``rho+`` among its
-    already visited 26-neighbours, or keeps ``rho`` when it has none (a local
+    ``rho+ = rho``; any other takes the largest ``rho+`` among its already
+    visited 26-neighbours, or keeps ``rho`` when it has none (a local
     maximum, READING-NOTES). NaN ``sigma_bar`` (undefined, eq. 4.3) is never
     low-derivative. Linear after the sort.
+
+    With ``velocity`` (and ``skeleton``, ``shape``) the neighbours a voxel
+    may take ``rho+`` from are those ahead of it along ``v``, within the
+    cone ``cos(v, y - x) >= min_cosine`` that the derivative measure steps
+    in: the recursion then follows the streamlines of eq. 5.1 (whose path
+    steps to the neighbour best aligned with ``v``) instead of spreading to
+    every higher neighbour, so core importance no longer leaks sideways
+    along noise sheets of equal ``rho``. Voxels with ``rho < min_rho`` (the
+    voxel-scale structures on which ``v`` and ``sigma_bar`` are undefined,
+    see :func:`derivative_measure`) and voxels with ``v = 0`` take it from
+    any visited neighbour, as in eq. 5.6. Without ``velocity`` this is eq.
+    5.6 as printed.
+
+    Returns
+    -------
+    rho_plus : float32 ndarray
+        ``rho_plus >= rho`` everywhere.
     """
     indptr, indices = adjacency
     rho = np.asarray(rho, dtype=np.float32)
     order = np.argsort(-rho, kind="stable").astype(np.int64)
     ligature = np.asarray(sigma_bar <= k)  # NaN compares False
-    return _rho_plus(rho, ligature, order, indptr, indices)
+    if velocity is None:
+        return _rho_plus(rho, ligature, order, indptr, indices)
+    coords = unravel(skeleton, shape).astype(np.float64)
+    cone = np.where(rho < min_rho, -np.inf, min_cosine)
+    return _rho_plus_cone(rho, ligature, order, indptr, indices, coords,
+                          np.asarray(velocity, dtype=np.float64), cone)
 
 
 @numba.njit(cache=True)
@@ -138,6 +179,37 @@ def _rho_plus(rho, ligature, order, indptr, indices):
             j = indices[p]
             if rank[j] < r and out[j] > best:
                 best = out[j]
+        if best > -np.inf:
+            out[i] = best
+    return out
+
+
+@numba.njit(cache=True)
+def _rho_plus_cone(rho, ligature, order, indptr, indices, coords, velocity, cone):
+    n = rho.shape[0]
+    out = rho.copy()
+    rank = np.empty(n, dtype=np.int64)
+    for r in range(n):
+        rank[order[r]] = r
+    for r in range(1, n):
+        i = order[r]
+        if ligature[i]:
+            continue
+        v0, v1, v2 = velocity[i, 0], velocity[i, 1], velocity[i, 2]
+        vn = np.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+        best = -np.inf
+        for p in range(indptr[i], indptr[i + 1]):
+            j = indices[p]
+            if rank[j] >= r or out[j] <= best:
+                continue
+            if vn > 0.0:
+                d0 = coords[j, 0] - coords[i, 0]
+                d1 = coords[j, 1] - coords[i, 1]
+                d2 = coords[j, 2] - coords[i, 2]
+                length = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+                if (d0 * v0 + d1 * v1 + d2 * v2) < cone[i] * length * vn:
+                    continue
+            best = out[j]
         if best > -np.inf:
             out[i] = best
     return out

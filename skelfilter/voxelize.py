@@ -19,9 +19,10 @@ from numba import njit, prange
 from .errors import InputError, ParameterError
 from .neighbourhood import OFFSETS_6
 
-# Rays run at this sub-voxel offset (in voxels) from the voxel centres so
-# that they practically never meet a triangle edge or vertex exactly.
-_NUDGE = 1e-6 * np.sqrt([2.0, 3.0])
+# Voxel centres are sampled at this tiny irrational offset (in voxels), the
+# same for the three axes: rays then practically never meet a triangle edge
+# or vertex, and a centre lying on the surface gets one answer from all axes.
+_NUDGE = 1e-6 * np.sqrt([2.0, 3.0, 5.0])
 
 # Voxel states between the votes and the occupancy; bit 0 means inside.
 _OUT, _IN = 0, 1  # three valid rays, unanimous
@@ -139,11 +140,22 @@ def voxelize(mesh, resolution=256, padding=8):
     volume : ndarray of bool, shape grid.shape
         True where the voxel centre is inside the mesh.
     grid : Grid
-        The grid of `volume`.
+        The grid of `volume`, from `grid_for_bounds` on the mesh's bounds.
+
+    Raises
+    ------
+    InputError
+        If the mesh has no faces, non-finite vertex coordinates, or all its
+        vertices at one point.
+    ParameterError
+        If `resolution` or `padding` is out of range.
     """
     triangles = _triangles(mesh)
     flat = triangles.reshape(-1, 3)
-    grid = grid_for_bounds(np.stack([flat.min(axis=0), flat.max(axis=0)]), resolution, padding)
+    bounds = np.stack([flat.min(axis=0), flat.max(axis=0)])
+    if (bounds[1] == bounds[0]).all():
+        raise InputError("all the mesh's vertices coincide")
+    grid = grid_for_bounds(bounds, resolution, padding)
     return _occupancy(triangles, grid), grid
 
 
@@ -200,13 +212,13 @@ def _triangles(mesh):
 
 
 def _occupancy(triangles, grid):
-    local = grid.to_index(triangles)
+    local = grid.to_index(triangles) - _NUDGE
     votes = np.zeros(grid.shape, dtype=np.uint8)
     rays, valid = [], []
     for axis in range(3):
         u, v = [a for a in range(3) if a != axis]
         nu, nv = grid.shape[u], grid.shape[v]
-        us, vs, ws = local[:, :, u] - _NUDGE[0], local[:, :, v] - _NUDGE[1], local[:, :, axis]
+        us, vs, ws = local[:, :, u], local[:, :, v], local[:, :, axis]
         # Counting sort of the crossings by ray: count them, then write each
         # one at its ray's next free slot.
         counts = np.zeros(nu * nv, dtype=np.int64)
@@ -232,6 +244,12 @@ def _occupancy(triangles, grid):
     if weak.size:
         _seal(votes, weak)
     return votes.view(np.bool_)
+
+
+@njit(cache=True)
+def _clip(x, n):
+    # Clipped in floating point: a far-away triangle's coordinates may not fit an int.
+    return int(min(max(x, 0.0), float(n)))
 
 
 @njit(cache=True)
@@ -269,12 +287,12 @@ def _scan(us, vs, ws, nu, nv, slot, hits):
         ta = sa == (1 if bx != cx else -1)
         tb = sb == (1 if cx != ax else -1)
         tc = sc == (1 if ax != bx else -1)
-        p0 = max(int(np.ceil(min(ax, bx, cx))), 0)
-        p1 = min(int(np.floor(max(ax, bx, cx))), nu - 1)
-        q0 = max(int(np.ceil(min(ay, by, cy))), 0)
-        q1 = min(int(np.floor(max(ay, by, cy))), nv - 1)
-        for p in range(p0, p1 + 1):
-            for q in range(q0, q1 + 1):
+        p0 = _clip(np.ceil(min(ax, bx, cx)), nu)
+        p1 = _clip(np.floor(max(ax, bx, cx)) + 1, nu)
+        q0 = _clip(np.ceil(min(ay, by, cy)), nv)
+        q1 = _clip(np.floor(max(ay, by, cy)) + 1, nv)
+        for p in range(p0, p1):
+            for q in range(q0, q1):
                 wa = _orient(bx, by, cx, cy, p, q) * sa
                 wb = _orient(cx, cy, ax, ay, p, q) * sb
                 wc = _orient(ax, ay, bx, by, p, q) * sc
@@ -310,7 +328,7 @@ def _vote(hits, start, votes, bit, valid):
                 valid[ray] = False
                 continue
             for i in range(a, b, 2):
-                for k in range(max(int(np.floor(hits[i])) + 1, 0), min(int(np.ceil(hits[i + 1])), n)):
+                for k in range(_clip(np.floor(hits[i]) + 1, n), _clip(np.ceil(hits[i + 1]), n)):
                     votes[p, q, k] |= bit
 
 
@@ -324,7 +342,7 @@ def _decide(votes, valid_x, valid_y, valid_z):
                 bits = votes[i, j, k]
                 n_valid = valid_x[j, k] + valid_y[i, k] + valid_z[i, j]
                 n_in = (bits & 1) + ((bits >> 1) & 1) + (bits >> 2)
-                if 2 * n_in == n_valid:
+                if n_valid < 2 or 2 * n_in == n_valid:
                     votes[i, j, k] = _UNDECIDED
                 elif n_valid == 3 and (n_in == 0 or n_in == 3):
                     votes[i, j, k] = _IN if n_in else _OUT
@@ -347,7 +365,7 @@ def _stretch_score(states, hits, start, strides, undecided, score):
             a, b = start[ray], start[ray + 1]
             k = 0
             for s in range(a, b + 1):
-                end = max(k, min(int(np.ceil(hits[s])), n)) if s < b else n
+                end = max(k, _clip(np.ceil(hits[s]), n)) if s < b else n
                 n_in = n_out = 0
                 for m in range(k, end):
                     state = states[p, q, m]

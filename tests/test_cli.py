@@ -54,9 +54,14 @@ def test_save_skeleton_writes_a_point_cloud_with_measures(cube_file, tmp_path):
     header = open(skel, "rb").read(400).split(b"end_header")[0].decode()
     for name in ("quality", "d", "rho", "sigma_bar", "rho_plus"):
         assert f"property float {name}" in header
-    cloud = trimesh.load(skel)
-    assert len(cloud.vertices) > 100
-    assert np.all(cloud.vertices.min(0) > -0.6) and np.all(cloud.vertices.max(0) < 0.7)
+    ply = trimesh.load(skel)
+    stage = np.asarray(ply.metadata["_ply_raw"]["vertex"]["data"]["stage"])
+    fg = ply.vertices[stage == 0]
+    assert len(fg) > 100 and (stage == 1).sum() > 100
+    # the foreground skeleton lies inside the noisy shape, in world coordinates
+    lo, hi = trimesh.load(tmp_path / "noisy.ply").bounds
+    assert np.all(fg > lo) and np.all(fg < hi)
+    assert np.all(np.abs(fg) < [0.5, 0.6, 0.4], axis=1).mean() > 0.5
 
 
 def one_error_line(r):

@@ -5,14 +5,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import scipy.ndimage as ndi
-from scipy.spatial import ConvexHull
 import trimesh
-from skimage.measure import euler_number
+from scipy import ndimage as ndi
+from scipy.spatial import ConvexHull
+from skimage.measure import euler_number, marching_cubes
 
+import skelfilter.voxelize as voxelize_module
 from skelfilter.errors import InputError, ParameterError
 from skelfilter.neighbourhood import has_border_margin
-import skelfilter.voxelize as voxelize_module
 from skelfilter.voxelize import Grid, grid_for_bounds, voxelize, voxelize_on_grid
 
 DATA = Path(__file__).parent / "data"
@@ -118,6 +118,8 @@ def test_unusable_meshes_are_input_errors():
         voxelize(trimesh.Trimesh())
     with pytest.raises(InputError, match="no faces"):
         voxelize(trimesh.Trimesh(box.vertices, np.zeros((0, 3), dtype=np.int64), process=False))
+    with pytest.raises(InputError, match="coincide"):
+        voxelize(trimesh.Trimesh(np.ones((3, 3)), [[0, 1, 2]], process=False))
     with pytest.raises(InputError, match="Trimesh"):
         voxelize(trimesh.Scene([box]))
 
@@ -161,9 +163,9 @@ def test_icosphere_matches_its_half_spaces_and_volume():
 
 @pytest.fixture(params=[True, False], ids=["nudged", "not-nudged"])
 def nudge(request, monkeypatch):
-    """Run with the rays' sub-voxel nudge, and without it to test the exact tie rule alone."""
+    """Run with the sampling's sub-voxel nudge, and without it to test the exact tie rule alone."""
     if not request.param:
-        monkeypatch.setattr(voxelize_module, "_NUDGE", np.zeros(2))
+        monkeypatch.setattr(voxelize_module, "_NUDGE", np.zeros(3))
 
 
 def test_rays_exactly_through_vertices_and_edges(nudge):
@@ -204,7 +206,8 @@ def test_winding_and_vertex_sharing_do_not_matter():
     flip = rng.random(len(faces)) < 0.5
     faces[flip] = faces[flip, ::-1]
     scrambled = trimesh.Trimesh(fandisk.vertices, faces[rng.permutation(len(faces))], process=False)
-    soup = trimesh.Trimesh(fandisk.triangles.reshape(-1, 3), np.arange(3 * len(faces)).reshape(-1, 3), process=False)
+    corners = fandisk.triangles.reshape(-1, 3)  # every triangle with its own three vertices
+    soup = trimesh.Trimesh(corners, np.arange(len(corners)).reshape(-1, 3), process=False)
     assert np.array_equal(voxelize_on_grid(scrambled, grid), volume)
     assert np.array_equal(voxelize_on_grid(soup, grid), volume)
 
@@ -219,12 +222,28 @@ def test_void_of_a_closed_mesh_stays_empty():
     assert volume.sum() * grid.pitch**3 == pytest.approx(outer.volume - inner.volume, rel=0.01)
 
 
-def test_open_tube_fills_like_the_capped_cylinder():
+def test_open_tube_and_open_box_fill_like_the_closed_ones():
     capped = trimesh.creation.cylinder(radius=1.0, height=3.0, sections=64)
-    tube = trimesh.Trimesh(capped.vertices, capped.faces[np.abs(capped.face_normals[:, 2]) < 0.5], process=False)
-    assert not tube.is_watertight
-    volume, grid = voxelize(capped, resolution=64)
-    assert np.array_equal(voxelize_on_grid(tube, grid), volume)
+    sides = np.abs(capped.face_normals[:, 2]) < 0.5
+    tube = trimesh.Trimesh(capped.vertices, capped.faces[sides], process=False)
+    box = trimesh.creation.box(extents=(1.0, 1.2, 1.4))
+    cup = trimesh.Trimesh(box.vertices, box.faces[box.face_normals[:, 2] < 0.5], process=False)
+    for closed, open_ in ((capped, tube), (box, cup)):
+        assert not open_.is_watertight
+        volume, grid = voxelize(closed, resolution=64)
+        assert np.array_equal(voxelize_on_grid(open_, grid), volume)
+
+
+def test_grid_may_cover_part_of_the_mesh():
+    sphere = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+    grid = Grid([0.5, -0.2, -0.2], 0.02, (40, 20, 20))  # straddles the surface at x ~ 1
+    volume = voxelize_on_grid(sphere, grid)
+    offsets = np.einsum("ij,ij->i", sphere.face_normals, sphere.triangles[:, 0])
+    expected = (centres(grid) @ sphere.face_normals.T < offsets).all(axis=1).reshape(grid.shape)
+    assert 0 < volume.sum() < volume.size
+    assert np.array_equal(volume, expected)
+    huge = trimesh.creation.box(extents=(1e15, 1e15, 1e15))
+    assert voxelize_on_grid(huge, grid).all()
 
 
 # --- real meshes ----------------------------------------------------------------
@@ -271,6 +290,15 @@ def test_unmerged_spot_voxelizes_like_the_merged_mesh():
     assert np.array_equal(voxelize_on_grid(merged, grid), volume)
     assert n_components(volume) == 1 and is_closed(volume)
     assert volume.sum() * grid.pitch**3 == pytest.approx(merged.volume, rel=0.01)
+
+
+def test_marching_cubes_surface_voxelizes_back_to_its_volume():
+    # The surface at level 0.5 separates every voxel centre from those of the
+    # other side, so re-voxelizing it on the same grid must give the volume back.
+    volume, grid = voxelize(load("stanford-bunny.obj"), resolution=64, padding=2)
+    vertices, faces, _, _ = marching_cubes(volume.astype(np.float32), 0.5)
+    surface = trimesh.Trimesh(grid.to_world(vertices), faces, process=False)
+    assert np.array_equal(voxelize_on_grid(surface, grid), volume)
 
 
 def test_rocker_arm_keeps_its_through_hole():
