@@ -52,7 +52,7 @@ class DenoiseParams:
         "voxels",
     )
     derivative_min_rho: float = _p(
-        5.0,
+        7.0,
         "below this importance rho the derivative measure is left undefined (like the guard l of "
         "eq. 4.3): on structures a few voxels across, such as the voxel steps of slanted surfaces, "
         "the grid's quantization of rho and D swamps sigma_bar; such voxels are never ligature and "

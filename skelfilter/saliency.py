@@ -1,4 +1,4 @@
-"""Derivative measure and global streamline importance (thesis §4.2 and §5.2.2).
+"""Derivative measure and streamline importance rho+ (thesis §4.2, §5.2.1 and §5.2.2).
 
 Everything here works on flat arrays over the skeleton voxels, linked by
 their 26-adjacency; ``rho`` exists only on the skeleton, so its derivative

@@ -50,6 +50,80 @@ def test_rho_plus_matches_recursion_of_eq_5_6():
     assert (got >= rho).all()
 
 
+def brute_rho_plus_cone(rho, sigma, coords, velocity, adjacency_sets, k, min_cosine, min_rho):
+    """Eq. 5.6 where a voxel only takes rho+ from visited neighbours ahead along v (cosine >= min_cosine)."""
+    order = sorted(range(len(rho)), key=lambda i: (-rho[i], i))
+    out = {}
+    for r, i in enumerate(order):
+        if r == 0 or (not np.isnan(sigma[i]) and sigma[i] <= k):
+            out[i] = rho[i]
+            continue
+        v = velocity[i].astype(np.float64)
+        done = []
+        for j in adjacency_sets[i]:
+            if j not in out:
+                continue
+            step = (coords[j] - coords[i]).astype(np.float64)
+            cosine = step @ v / (np.linalg.norm(step) * np.linalg.norm(v)) if v.any() else 1.0
+            if rho[i] < min_rho or cosine >= min_cosine:
+                done.append(out[j])
+        out[i] = max(done) if done else rho[i]
+    return np.array([out[i] for i in range(len(rho))], dtype=np.float32)
+
+
+def test_rho_plus_along_v_matches_brute_force():
+    shape = (12, 13, 14)
+    s = random_voxels(shape, n=500, seed=3)
+    indptr, indices = skeleton_adjacency(s, shape)
+    rng = np.random.default_rng(4)
+    rho = rng.integers(0, 30, len(s)).astype(np.float32)  # many ties
+    sigma = rng.normal(1.0, 1.0, len(s)).astype(np.float32)
+    sigma[rng.random(len(s)) < 0.1] = np.nan
+    # integer velocities keep the cosines away from rounding ties at the cone's edge
+    velocity = rng.integers(-3, 4, (len(s), 3)).astype(np.float32)
+    velocity[rng.random(len(s)) < 0.05] = 0.0  # no direction: any neighbour
+    adj = [set(indices[indptr[i]:indptr[i + 1]].tolist()) for i in range(len(s))]
+    coords = unravel(s, shape)
+    for min_cosine, min_rho in ((0.5, 0.0), (0.5, 7.0), (0.0, 3.0)):
+        got = rho_plus(rho, sigma, (indptr, indices), k=0.9, velocity=velocity, skeleton=s, shape=shape,
+                       min_cosine=min_cosine, min_rho=min_rho)
+        want = brute_rho_plus_cone(rho, sigma, coords, velocity, adj, 0.9, min_cosine, min_rho)
+        assert np.array_equal(got, want)
+        assert (got >= rho).all()
+    # a cone that admits every direction is eq. 5.6 as printed
+    wide = rho_plus(rho, sigma, (indptr, indices), k=0.9, velocity=velocity, skeleton=s, shape=shape,
+                    min_cosine=-1.5)
+    assert np.array_equal(wide, rho_plus(rho, sigma, (indptr, indices), k=0.9))
+
+
+def test_rho_plus_along_v_stops_sideways_inheritance():
+    # A core line along x whose importance grows to the root, and next to it
+    # (one voxel over in y) a noise line of constant importance whose
+    # derivative is undefined (NaN: never ligature) and whose v points away
+    # from the core (+y). Eq. 5.6 as printed hands the core's rho+ sideways
+    # to every noise voxel; along v the noise keeps its own importance.
+    shape = (30, 12, 5)
+    core = [(x, 5, 2) for x in range(2, 25)]
+    noise = [(x, 6, 2) for x in range(5, 20)]
+    coords = np.array(core + noise)
+    s = ravel(coords, shape)
+    order = np.argsort(s)
+    s, coords = s[order], coords[order]
+    is_core = coords[:, 1] == 5
+    rho = np.where(is_core, 10.0 + coords[:, 0], 8.0).astype(np.float32)
+    sigma = np.where(is_core, 2.0, np.nan).astype(np.float32)
+    v = np.where(is_core[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]).astype(np.float32)
+    adj = skeleton_adjacency(s, shape)
+    spread = rho_plus(rho, sigma, adj, k=0.9)
+    assert np.all(spread == rho.max())
+    along = rho_plus(rho, sigma, adj, k=0.9, velocity=v, skeleton=s, shape=shape)
+    assert np.all(along[is_core] == rho.max())
+    assert np.all(along[~is_core] == 8.0)
+    # below min_rho v is not trusted: the noise line takes rho+ from any neighbour again
+    small = rho_plus(rho, sigma, adj, k=0.9, velocity=v, skeleton=s, shape=shape, min_rho=9.0)
+    assert np.all(small == rho.max())
+
+
 def line_skeleton(shape, xs, y, z):
     return ravel(np.array([(x, y, z) for x in xs]), shape)
 
@@ -100,6 +174,20 @@ def test_derivative_measure_on_sheets():
     v_side = np.tile(np.array([[0.0, 1.0, 0.0]], np.float32), (len(s), 1))
     sig = derivative_measure(2.0 * c[:, 0].astype(np.float32), distance, s, v_side, adj, guard=0.1)
     assert np.isnan(sig).all()
+
+
+def test_derivative_measure_is_undefined_below_min_rho():
+    shape = (20, 18, 9)
+    s, c = sheet(shape, 4)
+    distance = np.broadcast_to(np.arange(shape[0], dtype=np.float32)[:, None, None], shape).copy()
+    v = np.tile(np.array([[1.0, 0.0, 0.0]], np.float32), (len(s), 1))
+    adj = skeleton_adjacency(s, shape)
+    rho = 2.0 * c[:, 0].astype(np.float32)  # 6 .. 32 across the sheet
+    full = derivative_measure(rho, distance, s, v, adj, guard=0.1)
+    cut = derivative_measure(rho, distance, s, v, adj, guard=0.1, min_rho=12.0)
+    assert np.isnan(cut[rho < 12.0]).all()
+    assert np.array_equal(cut[rho >= 12.0], full[rho >= 12.0], equal_nan=True)
+    assert not np.isnan(full[(rho < 12.0) & (c[:, 0] < c[:, 0].max())]).any()
 
 
 def test_derivative_ignores_off_skeleton_voxels():
