@@ -5,6 +5,7 @@ of the kernel filters (Tables 6.1-6.2) and uses it with ``r = 3`` (§8.1.2).
 """
 
 import numpy as np
+from scipy import ndimage
 from numba import njit, prange
 
 from .errors import ParameterError
@@ -79,3 +80,29 @@ def minify(distance, centres, radius=3.0):
     d_inf[order] = _ball_min(distance, unravel(centres[order], distance.shape), offsets)
     deep = distance.ravel()[centres] >= radius
     return np.where(deep, d_inf + radius, d_inf).astype(np.float32)
+
+
+def specks(mask, radius=3.0):
+    """Pieces and pockets of a reconstruction smaller than the minification ball.
+
+    Minification shrinks the radii of shallow skeleton voxels (``D < r``),
+    which can cut a thin part's last kept ball loose from the body, or leave
+    a pocket between shrunk balls: specks of a few voxels below the filter's
+    own scale. Returns the voxels whose state should flip: face-connected
+    components of ``mask`` and of its complement (marching cubes can give
+    a piece or a pocket joined only by an edge or a corner a surface of its
+    own) with fewer voxels than a ball of ``radius`` (4/3 pi r^3); never
+    the largest piece, never the outside.
+    """
+    limit = 4.0 / 3.0 * np.pi * radius**3
+    flip = np.zeros_like(mask)
+    for target in (mask, ~mask):
+        labels, n = ndimage.label(target)
+        if n <= 1:
+            continue
+        sizes = np.bincount(labels.reshape(-1), minlength=n + 1)
+        small = sizes < limit
+        small[0] = False
+        small[np.argmax(sizes[1:]) + 1] = False
+        flip |= small[labels]
+    return flip

@@ -163,6 +163,12 @@ def denoise_padded(volume, params, progress):
         margin = tuple(slice(b.start - 1, b.stop + 1) for b in box)
         field = np.full(current.shape, -1.0, dtype=np.float32)
         field[margin] = -stage.field[margin]
+    if params.edt_filter == "minify":
+        specks = edt_filters.specks(current, params.minify_radius)
+        current ^= specks
+        field[specks] = np.where(current[specks], 1.0, -1.0)
+    # The mesh and the voxels must agree: inside the surface iff in the mask.
+    np.copyto(field, np.where(current, np.maximum(field, 1e-3), np.minimum(field, -1e-3)))
     result.mask = current
     result.field = field
     return result
