@@ -164,9 +164,10 @@ def denoise_padded(volume, params, progress):
         field = np.full(current.shape, -1.0, dtype=np.float32)
         field[margin] = -stage.field[margin]
     if params.edt_filter == "minify":
-        specks = edt_filters.specks(current, params.minify_radius)
-        current ^= specks
-        field[specks] = np.where(current[specks], 1.0, -1.0)
+        with progress.step("specks"):
+            specks = edt_filters.specks(current, params.minify_radius)
+            current ^= specks
+            field[specks] = np.where(current[specks], 1.0, -1.0)
     # The mesh and the voxels must agree: inside the surface iff in the mask.
     np.copyto(field, np.where(current, np.maximum(field, 1e-3), np.minimum(field, -1e-3)))
     result.mask = current
