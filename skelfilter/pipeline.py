@@ -218,6 +218,17 @@ def denoise_volume(volume, params=None, progress=None, **overrides):
     return result
 
 
+def _voxelize(mesh, resolution, padding, progress):
+    """Occupancy of a mesh on its padded grid, memory checked before allocating."""
+    grid = voxelize.grid_for_bounds(mesh.bounds, resolution, padding)
+    check_grid_fits(grid.shape)
+    with progress.step("voxelize"):
+        occupancy = voxelize.voxelize_on_grid(mesh, grid)
+    if not occupancy.any():
+        raise InputError("the mesh encloses no voxel at this resolution (is it flat or open?)")
+    return occupancy, grid
+
+
 def denoise_mesh(mesh, params=None, progress=None, **overrides):
     """Denoise a triangle mesh: voxelize, run the pipeline, marching cubes.
 
@@ -238,12 +249,7 @@ def denoise_mesh_detailed(mesh, params=None, progress=None, **overrides):
     """Like :func:`denoise_mesh`, also returning the DenoiseResult and the Grid."""
     params = resolve_params(params, **overrides)
     progress = progress or Progress(enabled=False)
-    grid = voxelize.grid_for_bounds(mesh.bounds, params.resolution, params.padding_voxels)
-    check_grid_fits(grid.shape)
-    with progress.step("voxelize"):
-        occupancy = voxelize.voxelize_on_grid(mesh, grid)
-    if not occupancy.any():
-        raise InputError("the mesh encloses no voxel at this resolution (is it flat or open?)")
+    occupancy, grid = _voxelize(mesh, params.resolution, params.padding_voxels, progress)
     result = denoise_padded(occupancy, params, progress)
     with progress.step("marching cubes"):
         out = surface.field_to_mesh(result.field, grid)
@@ -264,10 +270,7 @@ def noisy_mesh(mesh, params=None, progress=None, **overrides):
     elif overrides:
         params = replace(params, **overrides)
     progress = progress or Progress(enabled=False)
-    grid = voxelize.grid_for_bounds(mesh.bounds, params.resolution, params.padding_voxels)
-    check_grid_fits(grid.shape)
-    with progress.step("voxelize"):
-        clean = voxelize.voxelize_on_grid(mesh, grid)
+    clean, grid = _voxelize(mesh, params.resolution, params.padding_voxels, progress)
     with progress.step("noise"):
         result = noise.add_noise(clean, p=params.p, r=params.r, h=params.h, l=params.l,
                                  seed=params.seed, dents=params.dents)

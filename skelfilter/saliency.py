@@ -155,33 +155,14 @@ def rho_plus(rho, sigma_bar, adjacency, k=0.9, velocity=None, skeleton=None, sha
     rho = np.asarray(rho, dtype=np.float32)
     order = np.argsort(-rho, kind="stable").astype(np.int64)
     ligature = np.asarray(sigma_bar <= k)  # NaN compares False
-    if velocity is None:
-        return _rho_plus(rho, ligature, order, indptr, indices)
-    coords = unravel(skeleton, shape).astype(np.float64)
-    cone = np.where(rho < min_rho, -np.inf, min_cosine)
-    return _rho_plus_cone(rho, ligature, order, indptr, indices, coords,
-                          np.asarray(velocity, dtype=np.float64), cone)
-
-
-@numba.njit(cache=True)
-def _rho_plus(rho, ligature, order, indptr, indices):
-    n = rho.shape[0]
-    out = rho.copy()
-    rank = np.empty(n, dtype=np.int64)
-    for r in range(n):
-        rank[order[r]] = r
-    for r in range(1, n):
-        i = order[r]
-        if ligature[i]:
-            continue
-        best = -np.inf
-        for p in range(indptr[i], indptr[i + 1]):
-            j = indices[p]
-            if rank[j] < r and out[j] > best:
-                best = out[j]
-        if best > -np.inf:
-            out[i] = best
-    return out
+    if velocity is None:  # eq. 5.6 as printed: every visited neighbour counts
+        coords = velocity = np.zeros((len(rho), 3))
+        cone = np.full(len(rho), -np.inf)
+    else:
+        coords = unravel(skeleton, shape).astype(np.float64)
+        velocity = np.asarray(velocity, dtype=np.float64)
+        cone = np.where(rho < min_rho, -np.inf, min_cosine)
+    return _rho_plus_cone(rho, ligature, order, indptr, indices, coords, velocity, cone)
 
 
 @numba.njit(cache=True)

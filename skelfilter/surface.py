@@ -2,10 +2,10 @@
 
 import numpy as np
 import trimesh
+from scipy import ndimage
 from skimage import measure
 
 from . import reconstruct
-from .distance import distance_and_features
 
 # Balls of radius D touch the centres of the nearest outside voxels; the
 # boundary between inside and outside voxel centres is half a voxel further in.
@@ -46,7 +46,7 @@ def mask_field(mask):
     Same construction as the pipeline's reconstruction without pruning, so
     meshes of noisy and of denoised volumes are extracted alike.
     """
-    distance, _ = distance_and_features(mask)
+    distance = ndimage.distance_transform_edt(mask)
     centres = np.flatnonzero(mask.reshape(-1))
     radii = distance.reshape(-1)[centres] - SURFACE_OFFSET
     _, owner = reconstruct.reverse_edt(mask.shape, centres, radii)
