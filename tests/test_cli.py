@@ -55,7 +55,15 @@ def test_save_skeleton_writes_a_point_cloud_with_measures(cube_file, tmp_path):
     for name in ("quality", "d", "rho", "sigma_bar", "rho_plus"):
         assert f"property float {name}" in header
     ply = trimesh.load(skel)
-    stage = np.asarray(ply.metadata["_ply_raw"]["vertex"]["data"]["stage"])
+    data = ply.metadata["_ply_raw"]["vertex"]["data"]
+    stage = np.asarray(data["stage"])
+    # MeshLab reads it, with rho+ as the per-vertex quality it colours by
+    import pymeshlab
+
+    ms = pymeshlab.MeshSet()
+    ms.load_new_mesh(str(skel))
+    assert ms.current_mesh().vertex_number() == len(stage)
+    assert np.allclose(ms.current_mesh().vertex_scalar_array(), data["rho_plus"])
     fg = ply.vertices[stage == 0]
     assert len(fg) > 100 and (stage == 1).sum() > 100
     # the foreground skeleton lies inside the noisy shape, in world coordinates
