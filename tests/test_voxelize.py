@@ -30,7 +30,7 @@ def centres(grid):
 
 def open3d_occupancy(mesh, points, nsamples):
     """Occupancy by open3d's ray casting (Embree), an independent implementation."""
-    o3d = pytest.importorskip("open3d")
+    import open3d as o3d  # installed by the set-up (with libusb-1.0-0): a missing one must fail, not skip
     scene = o3d.t.geometry.RaycastingScene()
     scene.add_triangles(
         o3d.core.Tensor(np.asarray(mesh.vertices, dtype=np.float32)),
