@@ -1,0 +1,117 @@
+"""MeshLab baseline scripts (meshlab_scripts/*.mlx) and the crash-safe pymeshlab runner."""
+
+import os
+
+import numpy as np
+import pymeshlab
+import pytest
+import trimesh
+
+from skelfilter.errors import InputError, SkelfilterError
+from skelfilter.meshlab import _TEST_HOOK_ENV, read_filter_script, run_filter_script
+
+SCRIPTS = os.path.join(os.path.dirname(__file__), "..", "meshlab_scripts")
+
+
+def script(name):
+    return os.path.join(SCRIPTS, name)
+
+
+@pytest.fixture(scope="module")
+def noisy_box():
+    box = trimesh.creation.box(extents=(10, 10, 10)).subdivide().subdivide().subdivide()
+    rng = np.random.default_rng(7)
+    vertices = box.vertices + rng.normal(0.0, 0.15, box.vertices.shape)
+    return trimesh.Trimesh(vertices=vertices, faces=box.faces, process=False)
+
+
+def test_scripts_hold_the_thesis_parameters():
+    (name, p), = read_filter_script(script("laplacian_surface_preserving.mlx"))
+    assert name == "apply_coord_laplacian_smoothing_surface_preserving"
+    assert p["angledeg"] == 60 and p["iterations"] == 50
+    (name, p), = read_filter_script(script("two_step.mlx"))
+    assert name == "apply_coord_two_steps_smoothing"
+    assert (p["stepsmoothnum"], p["normalthr"], p["stepnormalnum"], p["stepfitnum"]) == (40, 60, 20, 20)
+    for file, filt in (("mls_apss.mlx", "compute_mls_projection_apss"),
+                       ("rimls.mlx", "compute_mls_projection_rimls")):
+        (name, p), = read_filter_script(script(file))
+        assert name == filt and p["filterscale"] == 15
+        assert p["maxsubdivisions"] == 0 and p["thangleindegree"] == 2  # defaults kept
+    (name, p), = read_filter_script(script("taubin.mlx"))
+    assert name == "apply_coord_taubin_smoothing"
+    assert (p["lambda_"], p["mu"], p["stepsmoothnum"]) == (0.5, -0.53, 10)
+
+
+def _direct(mesh, filt, params):
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(pymeshlab.Mesh(vertex_matrix=np.asarray(mesh.vertices, dtype=np.float64),
+                               face_matrix=np.asarray(mesh.faces, dtype=np.int32)))
+    getattr(ms, filt)(**params)
+    return ms.current_mesh().vertex_matrix(), ms.current_mesh().face_matrix()
+
+
+@pytest.mark.parametrize("file", ["laplacian_surface_preserving.mlx", "two_step.mlx"])
+def test_runner_matches_pymeshlab_in_process(noisy_box, file):
+    (filt, params), = read_filter_script(script(file))
+    expected_v, expected_f = _direct(noisy_box, filt, params)
+    out = run_filter_script(noisy_box, script(file))
+    assert out.vertices.shape == expected_v.shape
+    assert np.allclose(out.vertices, expected_v, atol=1e-6, rtol=0)
+    assert np.array_equal(out.faces, expected_f)
+    assert not np.allclose(out.vertices, noisy_box.vertices)  # the filter did something
+
+
+def test_apss_runs_with_the_workaround(noisy_box):
+    out = run_filter_script(noisy_box, script("mls_apss.mlx"))
+    assert len(out.vertices) == len(noisy_box.vertices)
+    assert np.isfinite(out.vertices).all() and len(out.faces) == len(noisy_box.faces)
+
+
+def test_child_crash_is_reported(noisy_box, monkeypatch):
+    monkeypatch.setenv(_TEST_HOOK_ENV, "abort")
+    with pytest.raises(SkelfilterError, match="(?i)abort"):
+        run_filter_script(noisy_box, script("taubin.mlx"))
+
+
+def test_child_timeout_is_reported(noisy_box, monkeypatch):
+    monkeypatch.setenv(_TEST_HOOK_ENV, "sleep")
+    with pytest.raises(SkelfilterError, match="did not finish within 1 s"):
+        run_filter_script(noisy_box, script("taubin.mlx"), timeout=1)
+
+
+def test_pymeshlab_error_is_reported(noisy_box, tmp_path):
+    bad = tmp_path / "bad.mlx"
+    bad.write_text('<!DOCTYPE FilterScript>\n<FilterScript>\n <filter name="Taubin Smooth">\n'
+                   '  <Param name="noSuchParameter" value="3" type="RichInt"/>\n </filter>\n</FilterScript>\n')
+    with pytest.raises(SkelfilterError, match="apply_coord_taubin_smoothing"):
+        run_filter_script(noisy_box, bad)
+
+
+@pytest.mark.parametrize("text, message", [
+    ("<FilterScript><filter name='Taubin Smooth'>", "malformed"),
+    ('<?xml version="1.0"?>\n<!DOCTYPE lolz [\n <!ENTITY lol "lol">\n'
+     ' <!ENTITY lol2 "&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;">\n'
+     ' <!ENTITY lol3 "&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;">\n]>\n'
+     '<FilterScript><filter name="&lol3;"/></FilterScript>', "ENTITY"),
+    ('<!DOCTYPE FilterScript SYSTEM "file:///etc/passwd">\n<FilterScript/>', "DOCTYPE"),
+    ('<FilterScript><filter name="No Such Filter At All"/></FilterScript>', "not available"),
+    ('<FilterScript><filter name="Taubin Smooth"><Param name="mu" value="x" type="RichFloat"/>'
+     '</filter></FilterScript>', "not a number"),
+    ("<Other/>", "FilterScript"),
+])
+def test_bad_scripts_are_refused(tmp_path, text, message):
+    path = tmp_path / "bad.mlx"
+    path.write_text(text)
+    with pytest.raises(InputError, match=message):
+        read_filter_script(path)
+
+
+def test_oversized_script_is_refused(tmp_path, noisy_box):
+    path = tmp_path / "big.mlx"
+    with open(script("taubin.mlx"), "rb") as f:
+        head = f.read()
+    path.write_bytes(head + b"<!--" + b" " * (1 << 20) + b"-->")
+    with pytest.raises(InputError, match="1 MiB"):
+        read_filter_script(path)
+    with pytest.raises(InputError, match="1 MiB"):
+        run_filter_script(noisy_box, path)
