@@ -24,34 +24,11 @@ def test_adjacency_matches_brute_force():
         assert sorted(indices[indptr[i]:indptr[i + 1]].tolist()) == np.flatnonzero(brute[i]).tolist()
 
 
-def brute_rho_plus(rho, sigma, adjacency_sets, k):
-    order = sorted(range(len(rho)), key=lambda i: (-rho[i], i))
-    out = {}
-    for r, i in enumerate(order):
-        if r == 0 or (not np.isnan(sigma[i]) and sigma[i] <= k):
-            out[i] = rho[i]
-            continue
-        done = [out[j] for j in adjacency_sets[i] if j in out]
-        out[i] = max(done) if done else rho[i]
-    return np.array([out[i] for i in range(len(rho))], dtype=np.float32)
-
-
-def test_rho_plus_matches_recursion_of_eq_5_6():
-    shape = (12, 13, 14)
-    s = random_voxels(shape, n=500, seed=1)
-    indptr, indices = skeleton_adjacency(s, shape)
-    rng = np.random.default_rng(2)
-    rho = rng.integers(0, 30, len(s)).astype(np.float32)  # many ties
-    sigma = rng.normal(1.0, 1.0, len(s)).astype(np.float32)
-    sigma[rng.random(len(s)) < 0.1] = np.nan
-    adj = [set(indices[indptr[i]:indptr[i + 1]].tolist()) for i in range(len(s))]
-    got = rho_plus(rho, sigma, (indptr, indices), k=0.9)
-    assert np.array_equal(got, brute_rho_plus(rho, sigma, adj, 0.9))
-    assert (got >= rho).all()
-
-
 def brute_rho_plus_cone(rho, sigma, coords, velocity, adjacency_sets, k, min_cosine, min_rho):
-    """Eq. 5.6 where a voxel only takes rho+ from visited neighbours ahead along v (cosine >= min_cosine)."""
+    """Eq. 5.6 where a voxel only takes rho+ from visited neighbours ahead along v (cosine >= min_cosine).
+
+    A zero velocity (or ``min_cosine = -inf``) lets every visited neighbour count: eq. 5.6 as printed.
+    """
     order = sorted(range(len(rho)), key=lambda i: (-rho[i], i))
     out = {}
     for r, i in enumerate(order):
@@ -69,6 +46,22 @@ def brute_rho_plus_cone(rho, sigma, coords, velocity, adjacency_sets, k, min_cos
                 done.append(out[j])
         out[i] = max(done) if done else rho[i]
     return np.array([out[i] for i in range(len(rho))], dtype=np.float32)
+
+
+def test_rho_plus_matches_recursion_of_eq_5_6():
+    shape = (12, 13, 14)
+    s = random_voxels(shape, n=500, seed=1)
+    indptr, indices = skeleton_adjacency(s, shape)
+    rng = np.random.default_rng(2)
+    rho = rng.integers(0, 30, len(s)).astype(np.float32)  # many ties
+    sigma = rng.normal(1.0, 1.0, len(s)).astype(np.float32)
+    sigma[rng.random(len(s)) < 0.1] = np.nan
+    adj = [set(indices[indptr[i]:indptr[i + 1]].tolist()) for i in range(len(s))]
+    got = rho_plus(rho, sigma, (indptr, indices), k=0.9)
+    no_direction = np.zeros((len(s), 3))  # the literal eq. 5.6: every visited neighbour counts
+    want = brute_rho_plus_cone(rho, sigma, no_direction, no_direction, adj, 0.9, -np.inf, 0.0)
+    assert np.array_equal(got, want)
+    assert (got >= rho).all()
 
 
 def test_rho_plus_along_v_matches_brute_force():
