@@ -6,12 +6,16 @@ PIP ?= $(PYTHON) -m pip
 
 .PHONY: setup demo test bench
 
+# System libraries the wheels need: libusb-1.0-0 (open3d links against it), libosmesa6 (pyvista/VTK
+# draw the comparison's pictures off-screen on the CPU); chromium (the test that opens the report).
+SYSTEM_PACKAGES = libusb-1.0-0 libosmesa6 chromium
+
 setup:
-	@# open3d's wheel links against libusb-1.0 (a system library, not a wheel)
-	@if ! ldconfig -p 2>/dev/null | grep -q 'libusb-1.0.so.0'; then \
-		echo "installing libusb-1.0-0 (needed by open3d)"; \
+	@missing=$$(for p in $(SYSTEM_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+		echo "installing system packages:" $$missing; \
 		SUDO=$$( [ "$$(id -u)" -eq 0 ] || echo sudo ); \
-		$$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq libusb-1.0-0; \
+		$$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq $$missing; \
 	fi
 	$(PIP) install -q -e '.[test]'
 

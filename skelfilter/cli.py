@@ -1,4 +1,4 @@
-"""Command line: ``skelfilter denoise`` and ``skelfilter noise``.
+"""Command line: ``skelfilter denoise``, ``skelfilter noise`` and ``skelfilter compare``.
 
 Flags are generated from the parameter dataclasses in :mod:`skelfilter.params`.
 """
@@ -75,6 +75,15 @@ def build_parser():
     noi.add_argument("output", help="noisy output mesh, written atomically")
     _add_dataclass_flags(noi, NoiseParams)
     _add_display_flags(noi)
+
+    cmp = sub.add_parser("compare", help="run skelfilter and MeshLab's filters on the same noisy meshes "
+                         "and write a report (thesis §8.2)")
+    cmp.add_argument("config", nargs="?", help="TOML configuration (default: the thesis' protocol, "
+                     "comparisons/default.toml)")
+    cmp.add_argument("--out", default="comparison-output", help="output folder (default: comparison-output)")
+    cmp.add_argument("--jobs", type=int, help="MeshLab/MeshLib child processes at once (overrides [run] jobs)")
+    cmp.add_argument("--resolution", type=int, help="noise grid resolution (overrides [run] resolution)")
+    _add_display_flags(cmp)
     return parser
 
 
@@ -125,10 +134,18 @@ def _noise(args):
     io.save_mesh(noisy, args.output, protect=[args.input])
 
 
+def _compare(args):
+    from comparisons.config import load_config
+    from comparisons.run import Reporter, run_compare
+
+    config = load_config(args.config, jobs=args.jobs, resolution=args.resolution)
+    run_compare(config, args.out, Reporter(enabled=args.progress is not False))
+
+
 def main(argv=None):
     args = build_parser().parse_args(argv)
     try:
-        {"denoise": _denoise, "noise": _noise}[args.command](args)
+        {"denoise": _denoise, "noise": _noise, "compare": _compare}[args.command](args)
     except SkelfilterError as exc:
         print(f"skelfilter: error: {exc}", file=sys.stderr)
         return 2

@@ -266,7 +266,7 @@ def _child_main(workdir):
              vertices=mesh.vertex_matrix(), faces=mesh.face_matrix())
 
 
-def _signal_text(code):
+def signal_text(code):
     try:
         return f"{signal.strsignal(code) or signal.Signals(code).name} (signal {code})"
     except (ValueError, AttributeError):
@@ -324,7 +324,7 @@ def run_filter_script(mesh, path, timeout=300):
                                   f"{timeout:g} s; the child process was killed") from None
         if proc.returncode < 0:
             raise SkelfilterError(f"{path}: pymeshlab crashed running {names}: "
-                                  f"{_signal_text(-proc.returncode)}")
+                                  f"{signal_text(-proc.returncode)}")
         error_file = os.path.join(work, "error.txt")
         if os.path.exists(error_file):
             with open(error_file, encoding="utf-8") as f:

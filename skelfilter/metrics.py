@@ -282,6 +282,16 @@ def normal_error(result, clean, clean_surface=None):
     return float(np.average(angle, weights=area))
 
 
+def sharp_edges(mesh, angle=30.0):
+    """Vertex pairs of the edges whose two faces' normals differ by more than ``angle`` degrees."""
+    return mesh.face_adjacency_edges[mesh.face_adjacency_angles > np.radians(angle)]
+
+
+def vertex_distances(result, clean, grid):
+    """Distance (voxels) from every vertex of ``result`` to the clean surface, for colour maps."""
+    return _Surface(clean).closest(result.vertices)[0] / grid.pitch
+
+
 def sharp_edge_error(result, clean, grid, angle=30.0, spacing=0.5, result_surface=None):
     """Distance (voxels) from points along the clean mesh's sharp edges to the result surface.
 
@@ -307,8 +317,7 @@ def sharp_edge_error(result, clean, grid, angle=30.0, spacing=0.5, result_surfac
     n_edges : int
         Number of sharp edges found.
     """
-    sharp = clean.face_adjacency_angles > np.radians(angle)
-    edges = clean.face_adjacency_edges[sharp]
+    edges = sharp_edges(clean, angle)
     if len(edges) == 0:
         return float("nan"), float("nan"), 0
     a, b = clean.vertices[edges[:, 0]], clean.vertices[edges[:, 1]]

@@ -1,0 +1,103 @@
+"""Running one method of the comparison on a noisy mesh, timed, with failures kept as data.
+
+MeshLab's filters and MeshLib's denoiser are C++ that can crash; both run in a child process
+(MeshLab through :func:`skelfilter.meshlab.run_filter_script`, MeshLib here), so a segmentation
+fault, a timeout or NaN vertices become an ``Outcome`` with a reason and the comparison goes on.
+"""
+
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import trimesh
+
+from skelfilter import meshlab, pipeline
+from skelfilter.errors import SkelfilterError
+
+
+@dataclass
+class Outcome:
+    mesh: trimesh.Trimesh | None
+    seconds: float
+    error: str | None = None
+
+
+def run_method(method, noisy, clean, config):
+    """Apply ``method`` (a :class:`~comparisons.config.Method`) to ``noisy``; never raises on a
+    failure of the method itself."""
+    start = time.perf_counter()
+    try:
+        if method.kind == "noisy":
+            mesh = noisy
+        elif method.kind == "clean":
+            mesh = clean
+        elif method.kind == "skelfilter":
+            mesh = pipeline.denoise_mesh(noisy, config.denoise_params(method))
+        elif method.kind == "meshlab":
+            mesh = meshlab.run_filter_script(noisy, method.script, timeout=config.timeout)
+        elif method.kind == "meshlib":
+            mesh = meshlib_denoise(noisy, method.params, timeout=config.timeout)
+        else:
+            raise ValueError(f"unknown method kind {method.kind!r}")
+    except (SkelfilterError, MemoryError) as exc:
+        return Outcome(None, time.perf_counter() - start, str(exc) or type(exc).__name__)
+    return Outcome(mesh, time.perf_counter() - start)
+
+
+def _meshlib_child(workdir):
+    """Child process: mesh.npz + settings.npz -> MeshLib's meshDenoiseViaNormals -> result.npz."""
+    import meshlib.mrmeshnumpy as mn
+    import meshlib.mrmeshpy as mm
+
+    with np.load(os.path.join(workdir, "mesh.npz")) as z:
+        vertices, faces = z["vertices"], z["faces"]
+        settings = {k[2:]: z[k].item() for k in z.files if k.startswith("s_")}
+    mesh = mn.meshFromFacesVerts(faces, vertices)
+    s = mm.DenoiseViaNormalsSettings()
+    for key, value in settings.items():
+        setattr(s, key, value)
+    mm.meshDenoiseViaNormals(mesh, s)
+    np.savez(os.path.join(workdir, "result.npz"), vertices=mn.getNumpyVerts(mesh),
+             faces=mn.getNumpyFaces(mesh.topology))
+
+
+def meshlib_denoise(mesh, settings=None, timeout=900):
+    """MeshLib's ``meshDenoiseViaNormals`` (default settings unless given) in a child process.
+
+    Vertex order and faces are kept: the filter only moves vertices.
+
+    Raises
+    ------
+    SkelfilterError
+        MeshLib missing, crashed, timed out, or returned non-finite vertices.
+    """
+    with tempfile.TemporaryDirectory(prefix="skelfilter-meshlib-") as work:
+        np.savez(os.path.join(work, "mesh.npz"), vertices=np.asarray(mesh.vertices, dtype=np.float32),
+                 faces=np.asarray(mesh.faces, dtype=np.int32),
+                 **{f"s_{k}": np.asarray(v) for k, v in (settings or {}).items()})
+        cmd = [sys.executable, "-c",
+               "import sys; from comparisons.methods import _meshlib_child; _meshlib_child(sys.argv[1])", work]
+        package_parent = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+            p for p in (package_parent, os.environ.get("PYTHONPATH")) if p))
+        try:
+            proc = subprocess.run(cmd, env=env, stdin=subprocess.DEVNULL, capture_output=True, timeout=timeout)
+        except subprocess.TimeoutExpired:
+            raise SkelfilterError(f"MeshLib did not finish within {timeout:g} s; the child process was killed") \
+                from None
+        if proc.returncode < 0:
+            raise SkelfilterError(f"MeshLib crashed: {meshlab.signal_text(-proc.returncode)}")
+        if proc.returncode != 0:
+            tail = proc.stderr.decode("utf-8", "replace").strip().splitlines()[-1:]
+            raise SkelfilterError(f"MeshLib failed (exit status {proc.returncode}): {' '.join(tail)}")
+        with np.load(os.path.join(work, "result.npz")) as z:
+            vertices, faces = z["vertices"].astype(np.float64), z["faces"]
+    bad = ~np.isfinite(vertices).all(axis=1)
+    if bad.any():
+        raise SkelfilterError(f"MeshLib returned {int(bad.sum())} of {len(vertices)} vertices with NaN "
+                              "or infinite coordinates")
+    return trimesh.Trimesh(vertices=vertices, faces=faces, process=False)

@@ -1,0 +1,99 @@
+"""Headless pictures for the report: VTK (through pyvista) drawing into OSMesa, no display needed.
+
+Every cell of a model's row uses the same camera, the same light kit and smooth shading (vertex
+normals, split at edges sharper than ``FEATURE_ANGLE`` so a sharp edge looks sharp wherever a mesh
+has one), so differences between cells are differences between meshes.
+"""
+
+import os
+
+# OSMesa renders on the CPU without an X server or a GPU (the system library libosmesa6).
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkOSOpenGLRenderWindow")
+
+from dataclasses import dataclass  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from skelfilter.metrics import sharp_edges  # noqa: E402
+
+FEATURE_ANGLE = 45.0  # degrees
+MESH_COLOUR = (0.74, 0.78, 0.88)
+VIEW_ANGLE = 30.0  # degrees, the camera's vertical field of view
+CLOSEUP = 0.28  # close-up distance as a share of the overview's
+
+
+@dataclass(frozen=True)
+class Camera:
+    position: tuple
+    focal_point: tuple
+    up: tuple
+
+    def as_pyvista(self):
+        return [self.position, self.focal_point, self.up]
+
+
+def camera_for(mesh, view, up):
+    """A camera looking at the whole of ``mesh`` from direction ``view`` (centre -> eye)."""
+    view = np.asarray(view, dtype=float) / np.linalg.norm(view)
+    lo, hi = mesh.bounds
+    centre, radius = (lo + hi) / 2, np.linalg.norm(hi - lo) / 2
+    distance = 1.05 * radius / np.sin(np.radians(VIEW_ANGLE / 2))
+    return Camera(tuple(centre + distance * view), tuple(centre), tuple(map(float, up)))
+
+
+def closeup_camera(clean, camera, angle=30.0):
+    """A close-up of the clean mesh's sharp edge nearest to ``camera`` (its most dihedral edge when
+    none exceeds ``angle``), seen from the same direction."""
+    edges = sharp_edges(clean, angle)
+    if len(edges) == 0:
+        edges = clean.face_adjacency_edges[[np.argmax(clean.face_adjacency_angles)]]
+    mid = clean.vertices[edges].mean(axis=1)
+    eye, focus = np.asarray(camera.position), np.asarray(camera.focal_point)
+    toward = (eye - focus) / np.linalg.norm(eye - focus)
+    target = mid[np.argmax(mid @ toward)]
+    distance = CLOSEUP * np.linalg.norm(eye - focus)
+    return Camera(tuple(target + distance * toward), tuple(target), camera.up)
+
+
+def _polydata(mesh):
+    import pyvista as pv
+
+    return pv.PolyData.from_regular_faces(np.asarray(mesh.vertices, dtype=float),
+                                          np.asarray(mesh.faces, dtype=np.int64))
+
+
+def render(mesh, camera, path, size, scalars=None, clim=None, cmap="viridis"):
+    """Draw ``mesh`` into a PNG at ``path``; with ``scalars`` (one per vertex) as a colour map over
+    ``clim`` without shading variation from the colour, else in a plain colour."""
+    import pyvista as pv
+
+    plotter = pv.Plotter(off_screen=True, window_size=list(size))
+    try:
+        plotter.set_background("white")
+        options = dict(smooth_shading=True, split_sharp_edges=True, feature_angle=FEATURE_ANGLE)
+        if scalars is None:
+            plotter.add_mesh(_polydata(mesh), color=MESH_COLOUR, **options)
+        else:
+            data = _polydata(mesh)
+            data.point_data["distance"] = np.asarray(scalars, dtype=float)
+            plotter.add_mesh(data, scalars="distance", clim=clim, cmap=cmap, show_scalar_bar=False, **options)
+        plotter.camera_position = camera.as_pyvista()
+        plotter.camera.view_angle = VIEW_ANGLE
+        plotter.screenshot(path)
+    finally:
+        plotter.close()
+
+
+def colour_bar(path, clim, label, cmap="viridis"):
+    """A horizontal legend for the colour maps (matplotlib)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(5.0, 0.75), dpi=110)
+    fig.colorbar(matplotlib.cm.ScalarMappable(matplotlib.colors.Normalize(*clim), cmap), cax=ax,
+                 orientation="horizontal", label=label, extend="max")
+    fig.subplots_adjust(left=0.05, right=0.95, bottom=0.55, top=0.95)
+    fig.savefig(path)
+    plt.close(fig)

@@ -1,0 +1,153 @@
+"""The comparison harness: configuration checks, one tiny run end to end, the report in Chromium."""
+
+import json
+import os
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+import trimesh
+from PIL import Image
+
+from comparisons import report
+from comparisons.config import Method, default_config_path, load_config
+from comparisons.methods import run_method
+from comparisons.run import Reporter, run_compare
+from skelfilter.errors import InputError, ParameterError
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+SMOKE = os.path.join(HERE, "..", "comparisons", "smoke.toml")
+SCRIPTS = os.path.join(HERE, "..", "meshlab_scripts")
+
+
+def _write(tmp_path, text):
+    path = tmp_path / "c.toml"
+    path.write_text(text)
+    return str(path)
+
+
+def test_default_config_is_the_thesis_protocol():
+    cfg = load_config(default_config_path())
+    stripes = [c for c in cfg.cases if c.synthetic and (c.noise.p, c.noise.r, c.noise.h, c.noise.l) == (0.014, 2.1, 3, 6)]
+    assert {c.model.rsplit("/", 1)[-1] for c in stripes} >= {"cube", "fandisk", "stanford-bunny.obj", "rocker-arm.obj"}
+    assert any(c.synthetic and (c.noise.p, c.noise.h, c.noise.l) == (0.01, 7, 4) for c in cfg.cases)
+    assert any(c.synthetic and c.noise.dents for c in cfg.cases)
+    assert any(not c.synthetic and "twelve-impulsive" in c.noisy for c in cfg.cases)
+    scripts = {os.path.basename(m.script) for m in cfg.methods if m.kind == "meshlab"}
+    assert scripts >= {"laplacian_surface_preserving.mlx", "two_step.mlx", "mls_apss.mlx", "rimls.mlx", "taubin.mlx"}
+    assert {m.kind for m in cfg.methods} == {"noisy", "clean", "skelfilter", "meshlab", "meshlib"}
+    assert cfg.denoise_params(next(m for m in cfg.methods if m.kind == "skelfilter")).threshold == 18
+
+
+@pytest.mark.parametrize("text, fragment", [
+    ("[run]\nresolutoin = 3\n", "unknown key(s) resolutoin"),
+    ("[[case]]\nname='a'\nmodel='cube'\nnoise={p=2}\n[[method]]\nname='n'\nkind='noisy'\n", "case 1 (a): noise"),
+    ("[[case]]\nname='a'\nmodel='nowhere.obj'\n[[method]]\nname='n'\nkind='noisy'\n", "no such file"),
+    ("[[case]]\nname='a'\nmodel='cube'\n[[method]]\nname='m'\nkind='magic'\n", "method 1 (m): kind must be"),
+    ("[[case]]\nname='a'\nmodel='cube'\n[[method]]\nname='s'\nkind='skelfilter'\nparams={k=1,bogus=2}\n",
+     "method 1 (s): params"),
+    ("[[case]]\nname='a'\nmodel='cube'\n[[method]]\nname='n'\nkind='noisy'\n[sweep]\ncase='b'\nthresholds=[1]\n",
+     "[sweep]"),
+    ("[[method]]\nname='n'\nkind='noisy'\n", "at least one [[case]]"),
+])
+def test_config_errors_name_the_entry(tmp_path, text, fragment):
+    with pytest.raises(ParameterError) as err:
+        load_config(_write(tmp_path, text))
+    assert fragment in str(err.value)
+
+
+def test_config_unreadable(tmp_path):
+    with pytest.raises(InputError, match="not valid TOML"):
+        load_config(_write(tmp_path, "[run\n"))
+    with pytest.raises(InputError, match="no such configuration"):
+        load_config(str(tmp_path / "missing.toml"))
+
+
+def test_a_crashing_filter_becomes_a_failure(monkeypatch):
+    cfg = load_config(SMOKE)
+    cube_mesh = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    monkeypatch.setenv("_SKELFILTER_MESHLAB_CHILD_HOOK", "abort")
+    method = Method("Laplacian", "meshlab", os.path.join(SCRIPTS, "laplacian_surface_preserving.mlx"), {})
+    outcome = run_method(method, cube_mesh, cube_mesh, cfg)
+    assert outcome.mesh is None and "crashed" in outcome.error and "signal 6" in outcome.error
+
+
+def test_best_values_and_failures_in_tables():
+    case = {"methods": [
+        {"name": "noisy", "kind": "noisy", "seconds": 0.0, "error": None, "metrics": {"chamfer": 0.0}},
+        {"name": "a", "kind": "meshlab", "seconds": 2.0, "error": None, "metrics": {"chamfer": 1.5}},
+        {"name": "b", "kind": "skelfilter", "seconds": 1.0, "error": None, "metrics": {"chamfer": 0.5}},
+        {"name": "c", "kind": "meshlab", "seconds": 9.0, "error": "crashed: SIGSEGV"},
+    ]}
+    rows = {name: (cells, error) for name, cells, error in report.table_rows(case, ["chamfer", "seconds"])}
+    assert rows["b"][0] == [("0.500", True), ("1.0", True)]
+    assert rows["a"][0] == [("1.500", False), ("2.0", False)]
+    assert rows["noisy"][0][0] == ("0.000", False)  # references never win
+    assert rows["c"] == ([], "crashed: SIGSEGV")
+
+
+@pytest.fixture(scope="module")
+def smoke(tmp_path_factory):
+    out = str(tmp_path_factory.mktemp("compare"))
+    results = run_compare(load_config(SMOKE), out, Reporter(enabled=False))
+    return out, results
+
+
+def _entry(results, case, method):
+    c = next(c for c in results["cases"] if c["name"] == case)
+    return next(m for m in c["methods"] if m["name"] == method)
+
+
+def test_smoke_run_measures_every_method(smoke):
+    out, results = smoke
+    with open(os.path.join(out, "results.json")) as f:
+        assert json.load(f)["cases"][0]["name"] == "cube"
+    for case in results["cases"]:
+        for m in case["methods"]:
+            assert m["error"] is None, (case["name"], m["name"], m["error"])
+            assert os.path.isfile(os.path.join(out, m["mesh"]))
+    clean, noisy = _entry(results, "cube", "clean")["metrics"], _entry(results, "cube", "noisy")["metrics"]
+    skel = _entry(results, "cube", "skelfilter")["metrics"]
+    assert clean["noise_removed"] == 1.0 and clean["chamfer"] < 0.01 and clean["iou"] > 0.99
+    assert noisy["noise_removed"] < 0.02 and noisy["chamfer"] > 0.3
+    assert skel["noise_removed"] > noisy["noise_removed"] + 0.2 and skel["watertight"]
+    real = _entry(results, "twelve-impulsive", "MeshLib")["metrics"]
+    assert "noise_removed" not in real and real["chamfer"] > 0
+    rows = open(os.path.join(out, "metrics.csv")).read().splitlines()
+    assert len(rows) == 1 + sum(len(c["methods"]) for c in results["cases"])
+    sweep = results["sweep"]["rows"]
+    assert [r["t"] for r in sweep] == [4, 8, 12]
+    assert all(0 <= r["reconstruction_error"] <= 1 and 0 <= r["bumps_removed"] <= 1 for r in sweep)
+
+
+def test_smoke_pictures_show_meshes(smoke):
+    out, results = smoke
+    for case in results["cases"]:
+        for m in case["methods"]:
+            for kind, path in m["images"].items():
+                img = np.asarray(Image.open(os.path.join(out, path)).convert("L"), dtype=float)
+                covered = (img < 245).mean()  # the background is white
+                assert 0.03 < covered < 0.97 and img.std() > 10, (case["name"], m["name"], kind, covered)
+    md = open(os.path.join(out, "report.md")).read()
+    assert "| cube | skelfilter |" in md and "![sweep](sweep.png)" in md and "**" in md
+
+
+def test_report_opens_in_headless_chromium(smoke, tmp_path):
+    out, _ = smoke
+    browser = shutil.which("chromium") or shutil.which("chromium-browser")
+    assert browser, "chromium is not installed: run `make setup` (it installs Debian's chromium package)"
+    url = "file://" + os.path.abspath(os.path.join(out, "report.html"))
+    flags = [browser, "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
+             f"--user-data-dir={tmp_path / 'profile'}"]
+    dom = subprocess.run(flags + ["--virtual-time-budget=10000", "--dump-dom", url], capture_output=True,
+                         text=True, timeout=120).stdout
+    assert "skelfilter against MeshLab" in dom
+    total = int(dom.split('data-images-total="')[1].split('"')[0])
+    loaded = int(dom.split('data-images-loaded="')[1].split('"')[0])
+    assert total > 20 and loaded == total
+    shot = tmp_path / "page.png"
+    subprocess.run(flags + ["--window-size=1280,1600", f"--screenshot={shot}", url], capture_output=True,
+                   timeout=120, check=True)
+    page = np.asarray(Image.open(shot).convert("L"), dtype=float)
+    assert page.std() > 20 and (page < 128).mean() > 0.01  # text, tables and pictures, not a blank page
