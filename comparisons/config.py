@@ -50,7 +50,7 @@ class Config:
     path: str
     resolution: int  # voxels along the longest side: noise grid, skelfilter grid, metric unit
     seed: int
-    decimate: float  # keep this share of the noisy marching-cubes mesh's faces (1: keep all)
+    max_faces: int  # the noisy marching-cubes mesh is decimated to at most this many faces (0: never)
     jobs: int
     timeout: float  # seconds per method run
     image_size: tuple
@@ -169,7 +169,7 @@ def _meshlib_settings():
     return tuple(a for a in dir(s) if not a.startswith("_") and not callable(getattr(s, a)))
 
 
-_RUN_DEFAULTS = {"resolution": 160, "seed": 1, "decimate": 0.25, "jobs": 2, "timeout": 900.0,
+_RUN_DEFAULTS = {"resolution": 160, "seed": 1, "max_faces": 60_000, "jobs": 2, "timeout": 900.0,
                  "image_size": [420, 340]}
 
 
@@ -180,8 +180,8 @@ def _run_table(path, table):
         _fail(path, "[run]", f"resolution must be an integer >= 16, got {run['resolution']!r}")
     if not isinstance(run["seed"], int):
         _fail(path, "[run]", f"seed must be an integer, got {run['seed']!r}")
-    if not isinstance(run["decimate"], (int, float)) or not 0 < run["decimate"] <= 1:
-        _fail(path, "[run]", f"decimate must be in (0, 1], got {run['decimate']!r}")
+    if not isinstance(run["max_faces"], int) or not (run["max_faces"] == 0 or run["max_faces"] >= 1000):
+        _fail(path, "[run]", f"max_faces must be 0 (keep every face) or an integer >= 1000, got {run['max_faces']!r}")
     if not isinstance(run["jobs"], int) or run["jobs"] < 1:
         _fail(path, "[run]", f"jobs must be a positive integer, got {run['jobs']!r}")
     if not isinstance(run["timeout"], (int, float)) or not math.isfinite(run["timeout"]) or run["timeout"] <= 0:
@@ -242,7 +242,7 @@ def load_config(path=None, **overrides):
     if sweep_case is not None and (not thresholds or not all(
             isinstance(t, (int, float)) and t > 0 for t in thresholds)):
         _fail(path, "[sweep]", "thresholds must be a non-empty list of positive numbers (voxels)")
-    return Config(path=path, resolution=run["resolution"], seed=run["seed"], decimate=float(run["decimate"]),
+    return Config(path=path, resolution=run["resolution"], seed=run["seed"], max_faces=run["max_faces"],
                   jobs=run["jobs"], timeout=float(run["timeout"]), image_size=tuple(run["image_size"]),
                   cases=cases, methods=methods, sweep_case=sweep_case,
                   sweep_thresholds=tuple(float(t) for t in thresholds))

@@ -1,7 +1,7 @@
 """``skelfilter compare``: every method on the same noisy meshes, measured, pictured and reported.
 
 For each case: the clean model, its noisy version (the thesis' noise on the model's voxelization,
-§7.2, as a marching-cubes mesh decimated to ``decimate`` of its faces; or a given noisy/clean pair),
+§7.2, as a marching-cubes mesh decimated to at most ``max_faces`` faces; or a given noisy/clean pair),
 each method's result, :func:`skelfilter.metrics.mesh_metrics` against the clean mesh in voxels of the
 noise grid, and pictures with one camera per case. Then a threshold sweep of skelfilter on one case
 (like the thesis' fig. 4.4), and the report.
@@ -55,15 +55,15 @@ def _clean_model(model):
     return io.load_mesh(sample_path() if model == "fandisk" else model)
 
 
-def decimate(mesh, share):
-    """Quadric edge collapse (open3d) to ``share`` of the faces, unreferenced vertices dropped."""
-    if share >= 1:
+def decimate(mesh, max_faces):
+    """Quadric edge collapse (open3d) to at most ``max_faces`` faces, unreferenced vertices dropped."""
+    if max_faces == 0 or len(mesh.faces) <= max_faces:
         return mesh
     import open3d as o3d
 
     o3 = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(mesh.vertices),
                                    o3d.utility.Vector3iVector(mesh.faces))
-    o3 = o3.simplify_quadric_decimation(max(4, int(len(mesh.faces) * share)))
+    o3 = o3.simplify_quadric_decimation(int(max_faces))
     out = trimesh.Trimesh(np.asarray(o3.vertices), np.asarray(o3.triangles), process=False)
     out.remove_unreferenced_vertices()
     return out
@@ -74,7 +74,7 @@ def prepare_case(case, config):
     if case.synthetic:
         clean = _clean_model(case.model)
         marching, noise, grid = pipeline.noisy_mesh(clean, case.noise)
-        noisy = decimate(marching, config.decimate)
+        noisy = decimate(marching, config.max_faces)
         chamfer = metrics.chamfer_distance(noisy, marching, grid, n_samples=50_000)
         h95, hmax = metrics.hausdorff_distance(noisy, marching, grid, n_samples=50_000)
         facts = {"marching_cubes_faces": len(marching.faces), "faces": len(noisy.faces),
