@@ -4,7 +4,7 @@
 PYTHON ?= python3
 PIP ?= $(PYTHON) -m pip
 
-.PHONY: setup demo test bench
+.PHONY: setup demo test bench docs
 
 setup:
 	@# open3d's wheel links against libusb-1.0 (a system library, not a wheel)
@@ -23,3 +23,6 @@ test: setup
 
 bench: setup
 	$(PYTHON) benchmarks/bench_pipeline.py
+
+docs: setup
+	$(PYTHON) -m skelfilter.cli filters --markdown > docs/filters.md

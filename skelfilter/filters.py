@@ -28,7 +28,7 @@ from .params import ABSOLUTE, RELATIVE, DenoiseParams, NoiseParams
 
 RICH_TYPES = {bool: "RichBool", int: "RichInt", float: "RichFloat", str: "RichEnum"}
 
-MEASURES = {ABSOLUTE: "absolute (voxels)", RELATIVE: "relative (fraction of the model's longest side)"}
+MEASURES = {ABSOLUTE: "absolute", RELATIVE: "relative to the model's size"}
 
 
 @dataclass(frozen=True)
@@ -50,7 +50,7 @@ class FilterParameter:
     def full_tooltip(self):
         """The tooltip with the unit and, for lengths and thresholds, the measure."""
         notes = [n for n in (self.unit, MEASURES.get(self.measure)) if n]
-        return f"{self.tooltip} [{'; '.join(notes)}]" if notes else self.tooltip
+        return f"{self.tooltip} [{', '.join(notes)}]" if notes else self.tooltip
 
     @property
     def meshlab_default(self):
