@@ -39,7 +39,8 @@ def _add_filter_flags(parser, description):
 
 
 def _params(description, args):
-    given = {p.name: getattr(args, p.name) for p in description.parameters if getattr(args, p.name) is not None}
+    given = {p.name: getattr(args, p.name) for p in description.parameters
+             if getattr(args, p.name) is not None}
     return description.params_class(**given)
 
 

@@ -78,9 +78,9 @@ def _check_skelfilter(element, description, source):
 
 
 def _check(element, source):
-    description = filters.find(element.name)
-    if description is not None and element.name == description.name:
-        return _check_skelfilter(element, description, source)
+    for description in filters.FILTERS:
+        if element.name == description.name:
+            return _check_skelfilter(element, description, source)
     where = f"{source}:{element.line}: filter {element.name!r}"
     pname = meshlab_filters.python_filter_name(element.name)
     if pname is None:

@@ -109,7 +109,8 @@ def parameter_lists():
     except subprocess.TimeoutExpired:
         raise SkelfilterError("pymeshlab did not list its filters' parameters within 120 s") from None
     if proc.returncode != 0:
-        raise SkelfilterError(f"pymeshlab failed listing its filters' parameters: {proc.stderr.strip()[-300:]}")
+        raise SkelfilterError("pymeshlab failed listing its filters' parameters: "
+                              f"{proc.stderr.strip()[-300:]}")
     lists, current = {}, None
     for line in proc.stdout.splitlines():
         header = _HEADER_RE.match(line)
@@ -161,8 +162,8 @@ def check_filter(element, pname, source):
         if not allowed:
             raise InputError(f"{where}: pymeshlab cannot take a parameter of type {kind}")
         if p.attrs.get("type") not in allowed:
-            raise InputError(f"{where}: wrong type {p.attrs.get('type')!r}; pymeshlab's {key} is a {kind} "
-                             f"({' or '.join(allowed)})")
+            raise InputError(f"{where}: wrong type {p.attrs.get('type')!r}; pymeshlab's {key} is of type "
+                             f"{kind} ({' or '.join(allowed)})")
         params[key] = mlx.param_value(p.attrs, where)
         attrs[key] = p.attrs
     return params, attrs

@@ -95,9 +95,10 @@ def test_export_then_read_gives_the_parameters_back(tmp_path):
     (name, values), = meshlab.read_filter_script(path)
     assert name == "apply_skeleton_saliency_denoise" and DenoiseParams(**values) == params
     # the CLI writes the same file from the same flags
-    r = subprocess.run([sys.executable, "-m", "skelfilter.cli", "export-script", "denoise", tmp_path / "c.mlx",
-                        "--resolution", "96", "--threshold-relative", "0.05", "--stages", "background",
-                        "--importance", "estimate", "--geodesic-cap", "40", "--k", "0.75"],
+    r = subprocess.run([sys.executable, "-m", "skelfilter.cli", "export-script", "denoise",
+                        tmp_path / "c.mlx", "--resolution", "96", "--threshold-relative", "0.05",
+                        "--stages", "background", "--importance", "estimate", "--geodesic-cap", "40",
+                        "--k", "0.75"],
                        capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "c.mlx").read_text() == path.read_text()

@@ -12,6 +12,7 @@ import trimesh
 
 from skelfilter import io, meshlab, mlx, pipeline
 from skelfilter.errors import InputError
+from skelfilter.filters import SKELETON_SALIENCY_DENOISE
 from skelfilter.params import DenoiseParams, NoiseParams
 
 SCRIPTS = os.path.join(os.path.dirname(__file__), "..", "meshlab_scripts")
@@ -82,11 +83,10 @@ def test_pymeshlab_saved_script_gives_what_pymeshlab_gives(noisy_file, tmp_path)
 def test_layers_behave_as_in_meshlab(noisy_file, tmp_path):
     script = tmp_path / "layers.mlx"
     params = DenoiseParams(resolution=40, importance="euclidean")
-    taubin = '  <Param name="stepSmoothNum" type="RichInt" value="3"/>\n'
-    script.write_text(HEAD + ' <filter name="Duplicate Current layer"/>\n'
-                      + f' <filter name="Taubin Smooth">\n{taubin} </filter>\n'
-                      + mlx.script_text([meshlab.filter_element(meshlab.filters.SKELETON_SALIENCY_DENOISE,
-                                                                params)]).split("<FilterScript>\n")[1])
+    taubin = mlx.FilterElement("Taubin Smooth", 0, [
+        mlx.ParamElement({"name": "stepSmoothNum", "type": "RichInt", "value": "3"}, 0)])
+    script.write_text(mlx.script_text([mlx.FilterElement("Duplicate Current layer", 0), taubin,
+                                       meshlab.filter_element(SKELETON_SALIENCY_DENOISE, params)]))
     mesh = io.load_mesh(noisy_file)
     layers = meshlab.run_steps(meshlab.read_script(script), mesh)
     # the copy became current and was smoothed; the original layer 0 is untouched
@@ -95,7 +95,8 @@ def test_layers_behave_as_in_meshlab(noisy_file, tmp_path):
     smoothed = _direct(noisy_file, [("apply_coord_taubin_smoothing", dict(stepsmoothnum=3))])
     assert np.array_equal(layers.meshes[1].vertices, smoothed.current_mesh().vertex_matrix())
     # skelfilter's filter added its result as a new, current layer
-    assert np.array_equal(layers.current_mesh.vertices, pipeline.denoise_mesh(layers.meshes[1], params).vertices)
+    denoised = pipeline.denoise_mesh(layers.meshes[1], params)
+    assert np.array_equal(layers.current_mesh.vertices, denoised.vertices)
 
 
 def test_mixed_script_skeleton_step_equals_skelfilter_denoise(noisy_file, tmp_path):
@@ -162,6 +163,15 @@ BILLION_LAUGHS = ('<?xml version="1.0"?>\n<!DOCTYPE lolz [\n <!ENTITY lol "lol">
                   '<FilterScript><filter name="&lol2;"/></FilterScript>\n')
 
 
+def one_filter(name, *params):
+    """A script whose filter ``name`` stands on line 3, its ``<Param>``s on lines 4, 5, ..."""
+    body = "".join(f"  <Param {p}/>\n" for p in params)
+    return HEAD + f' <filter name="{name}">\n{body} </filter>\n' + TAIL
+
+
+DENOISE = "Skeleton Saliency Denoise"
+
+
 @pytest.mark.parametrize("text, message", [
     (BILLION_LAUGHS, r"bad.mlx:2: the DOCTYPE declares an internal subset \(<!ENTITY>"),
     ('<!DOCTYPE FilterScript SYSTEM "file:///etc/passwd">\n<FilterScript/>',
@@ -171,32 +181,27 @@ BILLION_LAUGHS = ('<?xml version="1.0"?>\n<!DOCTYPE lolz [\n <!ENTITY lol "lol">
     (HEAD + ' <filter name="&ent;"/>\n' + TAIL, r"bad.mlx:3: malformed filter script XML \(undefined entity"),
     (HEAD + ' <filter name="Taubin Smooth"/>\n <filter name="Skeleton Denoise"/>\n' + TAIL,
      r"bad.mlx:4: filter 'Skeleton Denoise': unknown filter: not a skelfilter filter"),
-    (HEAD + ' <filter name="Taubin Smooth">\n  <Param name="mu" value="-0.5" type="RichFloat"/>\n'
-     '  <Param name="steps" value="3" type="RichInt"/>\n </filter>\n' + TAIL,
+    (one_filter("Taubin Smooth", 'name="mu" value="-0.5" type="RichFloat"',
+                'name="steps" value="3" type="RichInt"'),
      r"bad.mlx:5: filter 'Taubin Smooth', parameter 'steps': unknown parameter \(pymeshlab's "
      r"apply_coord_taubin_smoothing takes lambda_, mu, stepsmoothnum, selected\)"),
-    (HEAD + ' <filter name="Taubin Smooth">\n  <Param name="stepSmoothNum" value="3" type="RichFloat"/>\n'
-     ' </filter>\n' + TAIL,
+    (one_filter("Taubin Smooth", 'name="stepSmoothNum" value="3" type="RichFloat"'),
      r"bad.mlx:4: filter 'Taubin Smooth', parameter 'stepSmoothNum': wrong type 'RichFloat'; pymeshlab's "
-     r"stepsmoothnum is a int \(RichInt or RichMesh\)"),
-    (HEAD + ' <filter name="Taubin Smooth">\n  <Param name="mu" value="x" type="RichFloat"/>\n </filter>\n'
-     + TAIL, r"bad.mlx:4: filter 'Taubin Smooth', parameter 'mu': value='x' is not a number"),
-    (HEAD + ' <filter name="Skeleton Saliency Denoise">\n  <Param name="treshold" value="9" type="RichFloat"/>\n'
-     ' </filter>\n' + TAIL,
+     r"stepsmoothnum is of type int \(RichInt or RichMesh\)"),
+    (one_filter("Taubin Smooth", 'name="mu" value="x" type="RichFloat"'),
+     r"bad.mlx:4: filter 'Taubin Smooth', parameter 'mu': value='x' is not a number"),
+    (one_filter(DENOISE, 'name="treshold" value="9" type="RichFloat"'),
      r"bad.mlx:4: filter 'Skeleton Saliency Denoise', parameter 'treshold': unknown parameter"),
-    (HEAD + ' <filter name="Skeleton Saliency Denoise">\n  <Param name="resolution" value="64" type="RichFloat"/>\n'
-     ' </filter>\n' + TAIL,
+    (one_filter(DENOISE, 'name="resolution" value="64" type="RichFloat"'),
      r"bad.mlx:4: filter 'Skeleton Saliency Denoise', parameter 'resolution': wrong type 'RichFloat'; "
      r"resolution is a RichInt"),
-    (HEAD + ' <filter name="Skeleton Saliency Denoise">\n  <Param name="stages" value="0" enum_val0="all" '
-     'type="RichEnum"/>\n </filter>\n' + TAIL,
+    (one_filter(DENOISE, 'name="stages" value="0" enum_val0="all" type="RichEnum"'),
      r"bad.mlx:4: filter 'Skeleton Saliency Denoise', parameter 'stages': stages must be one of both, "
      r"foreground, background, got 'all'"),
-    (HEAD + ' <filter name="Skeleton Saliency Denoise">\n  <Param name="resolution" value="8" type="RichInt"/>\n'
-     ' </filter>\n' + TAIL,
+    (one_filter(DENOISE, 'name="resolution" value="8" type="RichInt"'),
      r"bad.mlx:3: filter 'Skeleton Saliency Denoise': resolution must be an integer >= 16, got 8"),
-    (HEAD + ' <filter name="Add Skeleton Noise">\n  <Param name="l" value="2" type="RichInt"/>\n'
-     '  <Param name="l" value="3" type="RichInt"/>\n </filter>\n' + TAIL,
+    (one_filter("Add Skeleton Noise", 'name="l" value="2" type="RichInt"',
+                'name="l" value="3" type="RichInt"'),
      r"bad.mlx:5: filter 'Add Skeleton Noise', parameter 'l': given twice"),
     (HEAD + ' <Filter name="Taubin Smooth"/>\n' + TAIL, r"bad.mlx:3: <Filter> inside <FilterScript>"),
     (HEAD + TAIL, "contains no filters"),
@@ -208,8 +213,8 @@ def test_bad_scripts_name_the_line_filter_and_parameter(tmp_path, text, message)
         meshlab.read_script(path)
 
 
-@pytest.mark.parametrize("text", [BILLION_LAUGHS, HEAD + ' <filter name="Add Skeleton Noise">\n'
-                                  '  <Param name="h" value="2.5" type="RichFloat"/>\n </filter>\n' + TAIL])
+@pytest.mark.parametrize("text", [BILLION_LAUGHS,
+                                  one_filter("Add Skeleton Noise", 'name="h" value="2.5" type="RichFloat"')])
 def test_run_script_refuses_bad_scripts_and_writes_nothing(noisy_file, tmp_path, text):
     path = tmp_path / "bad.mlx"
     path.write_text(text)
