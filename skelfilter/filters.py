@@ -147,10 +147,6 @@ class FilterDescription:
         given = {name: self.parameter(name).to_python(value) for name, value in values.items()}
         return self.params_class(**given)
 
-    def meshlab_values(self, params):
-        """MeshLab's values of a parameter dataclass, by parameter name."""
-        return {p.name: p.to_meshlab(getattr(params, p.name)) for p in self.parameters}
-
 
 def _denoise(mesh, params, progress=None):
     return pipeline.denoise_mesh(mesh, params, progress)
@@ -201,9 +197,9 @@ def find(name):
 
 
 def _default_text(p):
-    if p.default is None:
-        return "0 (unset)"
-    return str(p.default).lower() if isinstance(p.default, bool) else str(p.default)
+    value = p.meshlab_default
+    text = str(value).lower() if isinstance(value, bool) else str(value)
+    return f"{text} (unset)" if p.default is None else text
 
 
 def text(description):
