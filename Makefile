@@ -4,7 +4,7 @@
 PYTHON ?= python3
 PIP ?= $(PYTHON) -m pip
 
-.PHONY: setup demo test bench
+.PHONY: setup demo test bench docs
 
 # System libraries the wheels need: libusb-1.0-0 (open3d links against it), libosmesa6 (pyvista/VTK
 # draw the comparison's pictures off-screen on the CPU); chromium (the test that opens the report).
@@ -27,3 +27,6 @@ test: setup
 
 bench: setup
 	$(PYTHON) benchmarks/bench_pipeline.py
+
+docs: setup
+	$(PYTHON) -m skelfilter.cli filters --markdown > docs/filters.md

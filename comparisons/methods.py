@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from skelfilter import meshlab, pipeline
+from skelfilter import meshlab, meshlab_filters, pipeline
 from skelfilter.errors import SkelfilterError
 
 
@@ -90,7 +90,7 @@ def meshlib_denoise(mesh, settings=None, timeout=900):
             raise SkelfilterError(f"MeshLib did not finish within {timeout:g} s; the child process was killed") \
                 from None
         if proc.returncode < 0:
-            raise SkelfilterError(f"MeshLib crashed: {meshlab.signal_text(-proc.returncode)}")
+            raise SkelfilterError(f"MeshLib crashed: {meshlab_filters.signal_text(-proc.returncode)}")
         if proc.returncode != 0:
             tail = proc.stderr.decode("utf-8", "replace").strip().splitlines()[-1:]
             raise SkelfilterError(f"MeshLib failed (exit status {proc.returncode}): {' '.join(tail)}")

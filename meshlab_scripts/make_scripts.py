@@ -1,18 +1,30 @@
-"""Regenerate the MeshLab baseline scripts of the comparison (thesis §8.2.1) in this folder.
+"""Regenerate the filter scripts in this folder: the MeshLab baselines of the comparison (thesis
+§8.2.1), ``skeleton_denoise.mlx`` and the mixed example. Run: ``python meshlab_scripts/make_scripts.py``.
 
-Each script is written by pymeshlab's own ``MeshSet.save_filter_script`` after applying its filter to a
-small mesh, so the XML is exactly what pymeshlab/MeshLab write. Run: ``python meshlab_scripts/make_scripts.py``.
+Each baseline script is written by pymeshlab's own ``MeshSet.save_filter_script`` after applying its
+filter to a small mesh, so the XML is exactly what pymeshlab/MeshLab write.
 
 The MLS projections (APSS, RIMLS) crash when a mesh is projected onto itself, so they are applied the
 safe way: layer 0 with per-vertex normals is the point set, layer 1 a copy that is projected
 (``controlmesh=0, proxymesh=1``). The normal computation is cleared from the recorded script, which
 therefore holds only the MLS filter with ControlMesh 0 and ProxyMesh 1.
+
+``skeleton_denoise.mlx`` applies "Skeleton Saliency Denoise" with the thesis' defaults, as
+``skelfilter export-script denoise`` writes it. ``mixed_example.mlx`` cleans the mesh up with MeshLab's
+filters, denoises it with skelfilter's and smooths it lightly with MeshLab's Taubin filter; its MeshLab
+filters are taken from a script pymeshlab saved. Both are written with skelfilter's writer, which
+orders the attributes, so the same parameters always give the same file.
 """
 
 import os
+import tempfile
 
 import pymeshlab
 import trimesh
+
+from skelfilter import meshlab, mlx
+from skelfilter.filters import SKELETON_SALIENCY_DENOISE
+from skelfilter.params import DenoiseParams
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -34,9 +46,38 @@ MLS = {
 }
 
 
+# the mixed example: MeshLab clean-up -> skeleton denoise -> a light MeshLab smoothing
+MIXED_CLEANUP = (("meshing_remove_duplicate_vertices", {}), ("meshing_remove_unreferenced_vertices", {}))
+MIXED_SMOOTHING = (("apply_coord_taubin_smoothing", dict(stepsmoothnum=4)),)
+
+
 def _mesh():
     box = trimesh.creation.box().subdivide()
     return pymeshlab.Mesh(vertex_matrix=box.vertices, face_matrix=box.faces)
+
+
+def _saved_filters(calls):
+    """The <filter> elements pymeshlab's save_filter_script writes for ``calls`` (name, params)."""
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(_mesh())
+    for name, params in calls:
+        getattr(ms, name)(**params)
+    with tempfile.TemporaryDirectory() as work:
+        path = os.path.join(work, "saved.mlx")
+        ms.save_filter_script(path)
+        return mlx.parse(mlx.read_bytes(path), path)
+
+
+def skeleton_denoise_text(params=DenoiseParams()):
+    """``skeleton_denoise.mlx``: "Skeleton Saliency Denoise" with ``params``."""
+    return mlx.script_text([meshlab.filter_element(SKELETON_SALIENCY_DENOISE, params)])
+
+
+def mixed_example_text(params=DenoiseParams()):
+    """``mixed_example.mlx``: MeshLab clean-up, skeleton denoise with ``params``, light smoothing."""
+    return mlx.script_text(_saved_filters(MIXED_CLEANUP)
+                           + [meshlab.filter_element(SKELETON_SALIENCY_DENOISE, params)]
+                           + _saved_filters(MIXED_SMOOTHING))
 
 
 def make_scripts(folder=HERE):
@@ -56,6 +97,11 @@ def make_scripts(folder=HERE):
         ms.set_current_mesh(0)
         getattr(ms, filt)(controlmesh=0, proxymesh=1, **params)
         ms.save_filter_script(os.path.join(folder, name))
+        written.append(name)
+    for name, text in (("skeleton_denoise.mlx", skeleton_denoise_text()),
+                       ("mixed_example.mlx", mixed_example_text())):
+        with open(os.path.join(folder, name), "w", encoding="utf-8") as f:
+            f.write(text)
         written.append(name)
     return written
 

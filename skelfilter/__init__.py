@@ -7,7 +7,8 @@ The pipeline of the thesis in ``shared/thesis`` (§8.1.1), one module per stage:
 
 Entry points: :func:`denoise_mesh`, :func:`denoise_volume`, :func:`noisy_mesh`
 and :func:`add_noise`; every stage is a public function of its module and is
-re-exported here.
+re-exported here. The MeshLab side: :mod:`skelfilter.meshset` (the filters on a
+PyMeshLab MeshSet) and :mod:`skelfilter.meshlab` (.mlx filter scripts).
 """
 
 import importlib

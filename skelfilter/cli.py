@@ -1,18 +1,18 @@
-"""Command line: ``skelfilter denoise``, ``skelfilter noise`` and ``skelfilter compare``.
+"""Command line: ``skelfilter denoise``, ``noise``, ``run-script``, ``export-script``, ``filters`` and
+``compare``.
 
-Flags are generated from the parameter dataclasses in :mod:`skelfilter.params`.
+The flags of a filter are generated from its MeshLab-style description (:mod:`skelfilter.filters`),
+itself read off the parameter dataclasses in :mod:`skelfilter.params`.
 """
 
 import argparse
 import sys
-import typing
-from dataclasses import MISSING, fields
 
 import numpy as np
 
-from . import io, pipeline
-from .errors import SkelfilterError
-from .params import DenoiseParams, NoiseParams
+from . import filters, io, meshlab, meshlab_filters, pipeline
+from .errors import InputError, SkelfilterError
+from .filters import ADD_SKELETON_NOISE, SKELETON_SALIENCY_DENOISE
 from .progress import Progress
 
 
@@ -20,39 +20,29 @@ def _flag(name):
     return "--" + name.replace("_", "-")
 
 
-def _value_type(f):
-    """``int`` for ``int | None`` and the like."""
-    args = [a for a in typing.get_args(f.type) if a is not type(None)]
-    return args[0] if args else f.type
-
-
-def _add_dataclass_flags(parser, cls):
-    for f in fields(cls):
-        meta = f.metadata
-        default = f.default if f.default is not MISSING else None
-        help_text = meta.get("help", "")
-        if meta.get("unit"):
-            help_text += f" [{meta['unit']}]"
-        if default is not None:
-            help_text += f" (default: {default})"
-        kind = _value_type(f)
-        if kind is bool:
-            parser.add_argument(_flag(f.name), dest=f.name, action="store_true", default=None, help=help_text)
+def _add_filter_flags(parser, description):
+    for p in description.parameters:
+        help_text = p.full_tooltip
+        if p.default is not None:
+            help_text += f" (default: {p.default})"
+        if p.value_type is bool:
+            parser.add_argument(_flag(p.name), dest=p.name, action="store_true", default=None, help=help_text)
             continue
         parser.add_argument(
-            _flag(f.name),
-            dest=f.name,
-            type=kind,
+            _flag(p.name),
+            dest=p.name,
+            type=p.value_type,
             default=None,
-            choices=meta.get("choices"),
-            metavar=None if meta.get("choices") else f.name.upper(),
+            choices=p.choices or None,
+            metavar=None if p.choices else p.name.upper(),
             help=help_text,
         )
 
 
-def _params(cls, args):
-    given = {f.name: getattr(args, f.name) for f in fields(cls) if getattr(args, f.name) is not None}
-    return cls(**given)
+def _params(description, args):
+    given = {p.name: getattr(args, p.name) for p in description.parameters
+             if getattr(args, p.name) is not None}
+    return description.params_class(**given)
 
 
 def build_parser():
@@ -65,7 +55,7 @@ def build_parser():
     den = sub.add_parser("denoise", help="denoise a mesh (thesis §8.1.1)")
     den.add_argument("input", help="input mesh (PLY, OBJ, STL, OFF, GLB); never modified")
     den.add_argument("output", help="output mesh, written atomically")
-    _add_dataclass_flags(den, DenoiseParams)
+    _add_filter_flags(den, SKELETON_SALIENCY_DENOISE)
     den.add_argument("--save-skeleton", metavar="FILE", help="write the skeleton voxels as a PLY point "
                      "cloud with per-point D, rho, sigma_bar, rho_plus (quality = rho_plus)")
     _add_display_flags(den)
@@ -73,8 +63,32 @@ def build_parser():
     noi = sub.add_parser("noise", help="add the thesis' synthetic noise (§7.2) to a mesh")
     noi.add_argument("input", help="input mesh; never modified")
     noi.add_argument("output", help="noisy output mesh, written atomically")
-    _add_dataclass_flags(noi, NoiseParams)
+    _add_filter_flags(noi, ADD_SKELETON_NOISE)
     _add_display_flags(noi)
+
+    run = sub.add_parser("run-script", help="run a MeshLab filter script (.mlx) mixing MeshLab's "
+                         "filters and skelfilter's")
+    run.add_argument("script", help="the .mlx filter script, checked whole before anything runs")
+    run.add_argument("input", help="input mesh (layer 0); never modified")
+    run.add_argument("output", help="the current layer at the end, written atomically")
+    run.add_argument("--timeout", type=float, default=300.0, metavar="SECONDS",
+                     help="time each run of consecutive MeshLab filters may take (default: 300)")
+    _add_display_flags(run)
+
+    exp = sub.add_parser("export-script", help="write a MeshLab filter script (.mlx) applying a "
+                         "skelfilter filter with the given parameters")
+    which = exp.add_subparsers(dest="filter", required=True, metavar="{" + ",".join(
+        d.command for d in filters.FILTERS) + "}")
+    for description in filters.FILTERS:
+        one = which.add_parser(description.command, help=f"a script applying {description.name!r}")
+        one.add_argument("output", help="the .mlx script, written atomically")
+        _add_filter_flags(one, description)
+
+    lst = sub.add_parser("filters", help="list skelfilter's filters (and MeshLab's) with their parameters")
+    lst.add_argument("name", nargs="?", help="show only this filter (skelfilter's, or pymeshlab's name)")
+    lst.add_argument("--meshlab", action="store_true", help="also list MeshLab's filters, as pymeshlab "
+                     "names them and their parameters")
+    lst.add_argument("--markdown", action="store_true", help="print docs/filters.md")
 
     cmp = sub.add_parser("compare", help="run skelfilter and MeshLab's filters on the same noisy meshes "
                          "and write a report (thesis §8.2)")
@@ -95,7 +109,7 @@ def _add_display_flags(parser):
 
 
 def _denoise(args):
-    params = _params(DenoiseParams, args)
+    params = _params(SKELETON_SALIENCY_DENOISE, args)
     mesh = io.load_mesh(args.input)
     progress = Progress(enabled=args.progress)
     out, result, grid = pipeline.denoise_mesh_detailed(mesh, params, progress)
@@ -127,11 +141,56 @@ def _save_skeleton(path, result, grid, protect):
 
 
 def _noise(args):
-    params = _params(NoiseParams, args)
+    params = _params(ADD_SKELETON_NOISE, args)
     mesh = io.load_mesh(args.input)
     progress = Progress(enabled=args.progress)
     noisy, _, _ = pipeline.noisy_mesh(mesh, params, progress)
     io.save_mesh(noisy, args.output, protect=[args.input])
+
+
+def _run_script(args):
+    steps = meshlab.read_script(args.script)
+    mesh = io.load_mesh(args.input)
+    progress = Progress(enabled=args.progress)
+    layers = meshlab.run_steps(steps, mesh, args.timeout, progress)
+    out = io.validate_mesh(layers.current_mesh, f"{args.script}: the current layer at the end")
+    io.save_mesh(out, args.output, protect=[args.input, args.script])
+    if progress.enabled:
+        print(f"wrote {args.output}: layer {layers.current} of {len(layers.meshes)}, "
+              f"{len(out.vertices)} vertices, {len(out.faces)} faces", file=sys.stderr)
+
+
+def _export_script(args):
+    description = filters.find(args.filter)
+    meshlab.export_script(args.output, description, _params(description, args))
+
+
+def _meshlab_filter_text(name, params):
+    lines = [f"{name} (pymeshlab)"]
+    lines += [f"  {p}: {kind} = {default}" for p, (kind, default) in params.items()]
+    return "\n".join(lines)
+
+
+def _filters(args):
+    if args.markdown:
+        print(filters.markdown(), end="")
+        return
+    if args.name:
+        description = filters.find(args.name)
+        if description is not None:
+            print(filters.text(description))
+            return
+        pname = meshlab_filters.python_filter_name(args.name) or args.name
+        params = meshlab_filters.parameter_lists().get(pname)
+        if params is None:
+            raise InputError(f"no filter {args.name!r}: not a skelfilter filter "
+                             f"({', '.join(d.name for d in filters.FILTERS)}) nor a pymeshlab filter")
+        print(_meshlab_filter_text(pname, params))
+        return
+    print("\n\n".join(filters.text(d) for d in filters.FILTERS))
+    if args.meshlab:
+        for name, params in sorted(meshlab_filters.parameter_lists().items()):
+            print("\n" + _meshlab_filter_text(name, params))
 
 
 def _compare(args):
@@ -145,7 +204,8 @@ def _compare(args):
 def main(argv=None):
     args = build_parser().parse_args(argv)
     try:
-        {"denoise": _denoise, "noise": _noise, "compare": _compare}[args.command](args)
+        {"denoise": _denoise, "noise": _noise, "run-script": _run_script, "export-script": _export_script,
+         "filters": _filters, "compare": _compare}[args.command](args)
     except SkelfilterError as exc:
         print(f"skelfilter: error: {exc}", file=sys.stderr)
         return 2

@@ -76,9 +76,47 @@ def atomic_write(path, write, protect=()):
 
 
 def save_mesh(mesh, path, protect=()):
-    """Write ``mesh`` to ``path`` (format from the extension), atomically."""
+    """Write ``mesh`` to ``path`` (format from the extension), atomically.
+
+    PLY files get double-precision vertices, as MeshLab writes them, so no digit of the coordinates
+    is lost (trimesh's PLY writer rounds them to float32); the other formats are trimesh's.
+    """
     ext = _extension(path)
+    if ext == "ply":
+        faces = np.empty(len(mesh.faces), dtype=[("count", "u1"), ("vertex_indices", "<i4", (3,))])
+        faces["count"] = 3
+        faces["vertex_indices"] = mesh.faces
+        _save_ply(path, _vertex_records(mesh.vertices, {}, "<f8"), faces, protect)
+        return
     atomic_write(path, lambda tmp: mesh.export(tmp, file_type=ext), protect)
+
+
+def _vertex_records(points, properties, dtype):
+    names = ["x", "y", "z"] + list(properties)
+    data = np.empty(len(points), dtype=[(n, dtype) for n in names])
+    data["x"], data["y"], data["z"] = np.asarray(points).T
+    for n in properties:
+        data[n] = properties[n]
+    return data
+
+
+def _save_ply(path, vertices, faces, protect):
+    """Binary little-endian PLY of a vertex record array and, if given, (count, indices) face records."""
+    kinds = {"<f4": "float", "<f8": "double"}
+    header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(vertices)}"]
+    header += [f"property {kinds[vertices.dtype[n].str]} {n}" for n in vertices.dtype.names]
+    if faces is not None:
+        header += [f"element face {len(faces)}", "property list uchar int vertex_indices"]
+    header.append("end_header")
+
+    def write(tmp):
+        with open(tmp, "wb") as f:
+            f.write(("\n".join(header) + "\n").encode("ascii"))
+            f.write(vertices.tobytes())
+            if faces is not None:
+                f.write(faces.tobytes())
+
+    atomic_write(path, write, protect)
 
 
 def save_point_cloud_ply(path, points, properties, protect=()):
@@ -87,20 +125,4 @@ def save_point_cloud_ply(path, points, properties, protect=()):
     ``properties`` maps names to arrays; a ``quality`` entry is what MeshLab
     colours by (Colors > Per Vertex Quality), the others load as attributes.
     """
-    points = np.asarray(points, dtype=np.float32)
-    names = list(properties)
-    dtype = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")] + [(n, "<f4") for n in names]
-    data = np.empty(len(points), dtype=dtype)
-    data["x"], data["y"], data["z"] = points.T
-    for n in names:
-        data[n] = np.asarray(properties[n], dtype=np.float32)
-    header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(points)}"]
-    header += [f"property float {n}" for n, _ in dtype]
-    header.append("end_header")
-
-    def write(tmp):
-        with open(tmp, "wb") as f:
-            f.write(("\n".join(header) + "\n").encode("ascii"))
-            f.write(data.tobytes())
-
-    atomic_write(path, write, protect)
+    _save_ply(path, _vertex_records(points, properties, "<f4"), None, protect)

@@ -1,8 +1,12 @@
 """The filter parameters, in one place.
 
-Every parameter is a dataclass field whose metadata carries its unit, its
-choices and a description; the CLI flags and the Python API defaults are
-derived from these dataclasses. Defaults are the thesis' (§8.1.2).
+Every parameter is a dataclass field whose metadata carries what MeshLab shows
+of a filter parameter: a short label, a description (the tooltip and the CLI
+help), its unit, its choices and, for lengths and thresholds, whether the value
+is absolute (voxels) or relative to the model's size. :mod:`skelfilter.filters`
+builds the MeshLab-style filter descriptions from these dataclasses, and the CLI
+flags, the Python and MeshSet defaults, the .mlx scripts and ``docs/filters.md``
+derive from those. Defaults are the thesis' (§8.1.2).
 """
 
 import math
@@ -11,12 +15,15 @@ from dataclasses import dataclass, field, fields, replace
 from .errors import ParameterError
 
 
-def _p(default, help, unit="", choices=None, flag=None):
-    meta = {"help": help, "unit": unit}
+ABSOLUTE = "absolute"  # a length in voxels of the grid
+RELATIVE = "relative"  # a fraction of the longest side of the model's bounding box
+
+
+def _p(default, label, help, unit="", choices=None, measure=""):
+    """A parameter: ``label`` is MeshLab's short name for it, ``help`` its description."""
+    meta = {"label": label, "help": help, "unit": unit, "measure": measure}
     if choices is not None:
         meta["choices"] = tuple(choices)
-    if flag is not None:
-        meta["flag"] = flag
     return field(default=default, metadata=meta)
 
 
@@ -24,69 +31,94 @@ def _p(default, help, unit="", choices=None, flag=None):
 class DenoiseParams:
     """Parameters of the skeleton saliency denoiser (thesis §8.1.1-8.1.2)."""
 
-    resolution: int = _p(256, "voxels along the longest side of the mesh's bounding box", "voxels")
+    resolution: int = _p(
+        256, "Resolution", "voxels along the longest side of the mesh's bounding box", "voxels"
+    )
     padding: int | None = _p(
         None,
+        "Padding",
         "empty voxels added around the shape on every side; the background stage works inside "
         "this padded box (default: max(8, t/2 + 2))",
         "voxels",
+        measure=ABSOLUTE,
     )
     threshold: float = _p(
         18.0,
+        "Importance threshold t",
         "importance threshold t on rho+ (eq. 5.6): skeleton parts whose streamline importance is "
         "below t are pruned; t must exceed the geodesic width of the noise to remove "
         "(about 2h + pi r for a ridge of height h and radius r)",
         "voxels",
+        measure=ABSOLUTE,
     )
     threshold_relative: float | None = _p(
         None,
-        "threshold t as a fraction of the longest bounding-box side (overrides --threshold; "
-        "t = threshold_relative * resolution voxels)",
+        "Relative importance threshold",
+        "threshold t as a fraction of the longest bounding-box side (overrides the threshold in "
+        "voxels; t = threshold_relative * resolution voxels)",
         "fraction",
+        measure=RELATIVE,
     )
-    k: float = _p(0.9, "derivative threshold k: skeleton voxels with sigma_bar <= k are ligature (eq. 5.6)")
+    k: float = _p(
+        0.9, "Derivative threshold k",
+        "derivative threshold k: skeleton voxels with sigma_bar <= k are ligature (eq. 5.6)",
+    )
     derivative_guard: float = _p(
         0.1,
+        "Derivative guard l",
         "guard l of eq. 4.3: where grad D . v < l the derivative measure is undefined and the voxel "
         "is never treated as ligature",
         "voxels",
+        measure=ABSOLUTE,
     )
     derivative_min_rho: float = _p(
         7.0,
+        "Least importance for the derivative",
         "below this importance rho the derivative measure is left undefined (like the guard l of "
         "eq. 4.3): on structures a few voxels across, such as the voxel steps of slanted surfaces, "
         "the grid's quantization of rho and D swamps sigma_bar; such voxels are never ligature and "
         "take rho+ from any neighbour",
         "voxels",
+        measure=ABSOLUTE,
     )
     stages: str = _p(
         "both",
+        "Stages",
         "which stages run: foreground removes bumps, background removes dents (§3.1.1)",
         choices=("both", "foreground", "background"),
     )
     edt_filter: str = _p(
-        "minify", "EDT filter applied to the kept skeleton radii (§6.2.1)", choices=("minify", "none")
+        "minify", "EDT filter", "EDT filter applied to the kept skeleton radii (§6.2.1)",
+        choices=("minify", "none"),
     )
-    minify_radius: float = _p(3.0, "radius r of the implicit minification filter (§6.2.1)", "voxels")
+    minify_radius: float = _p(
+        3.0, "Minification radius r", "radius r of the implicit minification filter (§6.2.1)", "voxels",
+        measure=ABSOLUTE,
+    )
     importance: str = _p(
         "geodesic",
+        "Importance measure",
         "importance rho: graph geodesic over the boundary layer (§3.1.2), its estimate (eq. 7.22) "
         "or the Euclidean distance of the feature points",
         choices=("geodesic", "estimate", "euclidean"),
     )
     geodesic_cap: float | None = _p(
         None,
+        "Geodesic search cap",
         "geodesics are searched up to this length and longer ones are set to it; any cap above t "
         "leaves the kept/pruned decision of every voxel unchanged in practice (default max(2t, t+8))",
         "voxels",
+        measure=ABSOLUTE,
     )
     skeleton: str = _p(
         "ie",
+        "Skeleton rule",
         "surface skeleton rule: IE (eq. 7.7, E >= 1) or IMA (eq. 7.1-7.2)",
         choices=("ie", "ima"),
     )
     velocity: str = _p(
         "feature",
+        "Velocity field",
         "velocity field v of the derivative measure: feature-point based (eq. 4.16) or grad D (eq. 4.7)",
         choices=("feature", "edt-gradient"),
     )
@@ -140,13 +172,20 @@ class DenoiseParams:
 class NoiseParams:
     """Parameters of the thesis' noise model (§7.2)."""
 
-    p: float = _p(0.014, "incidence: probability that a surface voxel starts a protrusion", "probability")
-    r: float = _p(2.1, "radius of the spherical noise kernel (eq. 7.13)", "voxels")
-    h: int = _p(3, "height of the protrusion along the normal (eq. 7.14)", "voxels")
-    l: int = _p(6, "length of the random surface walk; 1 gives isolated bumps (eq. 7.15-7.16)", "steps")
-    seed: int = _p(0, "random seed; equal seeds give equal noise")
-    dents: bool = _p(False, "also carve dents inward, at independently drawn sites")
-    resolution: int = _p(160, "voxels along the longest side of the bounding box", "voxels")
+    p: float = _p(
+        0.014, "Incidence p", "incidence: probability that a surface voxel starts a protrusion", "probability"
+    )
+    r: float = _p(2.1, "Kernel radius r", "radius of the spherical noise kernel (eq. 7.13)", "voxels",
+                   measure=ABSOLUTE)
+    h: int = _p(3, "Height h", "height of the protrusion along the normal (eq. 7.14)", "voxels",
+                measure=ABSOLUTE)
+    l: int = _p(
+        6, "Walk length l", "length of the random surface walk; 1 gives isolated bumps (eq. 7.15-7.16)",
+        "steps",
+    )
+    seed: int = _p(0, "Random seed", "random seed; equal seeds give equal noise")
+    dents: bool = _p(False, "Dents", "also carve dents inward, at independently drawn sites")
+    resolution: int = _p(160, "Resolution", "voxels along the longest side of the bounding box", "voxels")
 
     def __post_init__(self):
         if not 0 <= self.p <= 1:

@@ -129,9 +129,9 @@ def test_flags_come_from_the_parameter_dataclass():
     parser = cli.build_parser()
     args = parser.parse_args(["denoise", "a.obj", "b.obj", "--threshold", "12", "--stages", "foreground",
                               "--edt-filter", "none", "--importance", "estimate", "--skeleton", "ima", "--k", "0.5"])
-    params = cli._params(cli.DenoiseParams, args)
+    params = cli._params(cli.SKELETON_SALIENCY_DENOISE, args)
     assert (params.threshold, params.stages, params.edt_filter, params.importance, params.skeleton, params.k) == (
         12.0, "foreground", "none", "estimate", "ima", 0.5)
     args = parser.parse_args(["noise", "a.obj", "b.obj", "--p", "0.02", "--l", "1", "--dents"])
-    noise = cli._params(cli.NoiseParams, args)
+    noise = cli._params(cli.ADD_SKELETON_NOISE, args)
     assert (noise.p, noise.l, noise.dents) == (0.02, 1, True)

@@ -8,7 +8,8 @@ import pytest
 import trimesh
 
 from skelfilter.errors import InputError, SkelfilterError
-from skelfilter.meshlab import _TEST_HOOK_ENV, read_filter_script, run_filter_script
+from skelfilter.meshlab import read_filter_script, run_filter_script
+from skelfilter.meshlab_filters import _TEST_HOOK_ENV
 
 SCRIPTS = os.path.join(os.path.dirname(__file__), "..", "meshlab_scripts")
 
@@ -80,10 +81,14 @@ def test_child_timeout_is_reported(noisy_box, monkeypatch):
 
 
 def test_pymeshlab_error_is_reported(noisy_box, tmp_path):
+    # a well-formed script pymeshlab refuses only when it runs: an enum label it does not know
     bad = tmp_path / "bad.mlx"
-    bad.write_text('<!DOCTYPE FilterScript>\n<FilterScript>\n <filter name="Taubin Smooth">\n'
-                   '  <Param name="noSuchParameter" value="3" type="RichInt"/>\n </filter>\n</FilterScript>\n')
-    with pytest.raises(SkelfilterError, match="apply_coord_taubin_smoothing"):
+    bad.write_text('<!DOCTYPE FilterScript>\n<FilterScript>\n <filter name="Taubin Smooth"/>\n'
+                   ' <filter name="Colorize by vertex Quality">\n'
+                   '  <Param name="colorMap" value="0" enum_val0="NoSuchMap" type="RichEnum"/>\n'
+                   ' </filter>\n</FilterScript>\n')
+    with pytest.raises(SkelfilterError, match=r"bad.mlx:4: filter 'Colorize by vertex Quality': "
+                                              r"pymeshlab's compute_color_from_scalar_per_vertex failed.*NoSuchMap"):
         run_filter_script(noisy_box, bad)
 
 

@@ -1,0 +1,321 @@
+"""MeshLab's filters as pymeshlab runs them: names, parameter lists, and a crash-safe child process.
+
+A MeshLab filter in a script is named as MeshLab shows it ("Taubin Smooth"); pymeshlab calls it
+``apply_coord_taubin_smoothing`` and lowercases its parameter names (``stepSmoothNum`` ->
+``stepsmoothnum``). :func:`check_filter` maps both and checks every parameter's name and .mlx type
+against pymeshlab's own parameter list of the filter (what ``pymeshlab.print_filter_parameter_list``
+prints).
+
+:func:`run_filters` applies MeshLab filters to a stack of layers in a separate Python process, so a
+crash in MeshLab's C++ code (segmentation fault, abort) or a hang becomes a
+:class:`~skelfilter.errors.SkelfilterError` instead of killing the caller. The child gets every layer
+and the current one, as a MeshSet holds them, and gives back every layer and the current one: a filter
+that creates a layer (``generate_copy_of_current_mesh``, ...) makes it current, as in MeshLab.
+
+The MLS projections (APSS, RIMLS) crash when the mesh is projected onto itself (both layers 0, the
+default). They are always applied the way that works: the current layer with freshly computed
+per-vertex normals is the point set (layer 0 of a separate MeshSet), a copy of it the projected proxy
+(layer 1), ``controlmesh=0, proxymesh=1``; the projection replaces the current layer. The script's
+own ControlMesh/ProxyMesh values are ignored. Rebuilding the MeshSet around it drops per-vertex
+attributes (normals, colours, quality) of all layers; vertices and faces are what passes between
+filters anyway.
+"""
+
+import functools
+import json
+import keyword
+import os
+import re
+import signal
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+
+from . import mlx
+from .errors import InputError, SkelfilterError
+
+MLS_FILTERS = ("compute_mls_projection_apss", "compute_mls_projection_rimls")
+
+# hidden hook for the tests: the child aborts ("abort") or hangs ("sleep") before doing any work
+_TEST_HOOK_ENV = "_SKELFILTER_MESHLAB_CHILD_HOOK"
+
+# pymeshlab's type of a parameter (as print_filter_parameter_list names it) -> .mlx types carrying it
+_RICH_TYPES_OF = {
+    "bool": ("RichBool",),
+    "int": ("RichInt", "RichMesh"),
+    "float": ("RichFloat", "RichDynamicFloat"),
+    "float (bounded)": ("RichDynamicFloat", "RichFloat"),
+    "PercentageValue": ("RichAbsPerc",),
+    "str": ("RichEnum", "RichString", "RichOpenFile", "RichSaveFile"),
+    "numpy.ndarray[numpy.float64[3]]": ("RichPosition", "RichPoint3f", "RichDirection"),
+    "numpy.ndarray[numpy.float64[4, 4]]": ("RichMatrix44f",),
+    "Color": ("RichColor",),
+}
+
+_HEADER_RE = re.compile(r"^(\w+) filter - list of parameter names:$")
+_PARAM_RE = re.compile(r"^\t(\w+) : (.+?) = (.*)$")
+
+
+# ---------------------------------------------------------------------------------------------
+# names and parameter lists
+
+
+def python_filter_name(meshlab_name):
+    """pymeshlab's name of a MeshLab filter ('TwoStep Smooth' -> 'apply_coord_two_steps_smoothing'),
+    or None if pymeshlab has no such filter."""
+    renames, available = _pymeshlab_names()
+    old = re.sub(r"[^0-9a-z]+", "_", meshlab_name.lower()).strip("_")
+    new = renames.get(old, old)
+    return new if new in available else None
+
+
+@functools.lru_cache(maxsize=1)
+def _pymeshlab_names():
+    """pymeshlab's table of renamed filters (keys.txt: old derived name -> name) and its filter list."""
+    import pymeshlab
+
+    renames = {}
+    keys = os.path.join(os.path.dirname(pymeshlab.__file__), "keys.txt")
+    if os.path.isfile(keys):
+        with open(keys, encoding="utf-8") as f:
+            for line in f:
+                parts = line.split()
+                if len(parts) == 2:
+                    renames[parts[0]] = parts[1]
+    return renames, frozenset(pymeshlab.filter_list())
+
+
+def python_param_name(meshlab_name):
+    """pymeshlab's name of a parameter ('stepSmoothNum' -> 'stepsmoothnum', 'lambda' -> 'lambda_')."""
+    name = re.sub(r"[^0-9a-z_]+", "_", meshlab_name.lower())
+    return name + "_" if keyword.iskeyword(name) else name
+
+
+@functools.lru_cache(maxsize=1)
+def parameter_lists():
+    """Every pymeshlab filter's parameters: ``{filter: {param: (type, default)}}``, as text.
+
+    pymeshlab prints the lists from C++ (``print_filter_parameter_list``), so they are read from a
+    child Python's output (half a second, once per process).
+    """
+    code = ("import pymeshlab\n"
+            "for name in pymeshlab.filter_list():\n"
+            "    pymeshlab.print_filter_parameter_list(name)\n")
+    try:
+        proc = subprocess.run([sys.executable, "-c", code], stdin=subprocess.DEVNULL,
+                              capture_output=True, text=True, timeout=120)
+    except subprocess.TimeoutExpired:
+        raise SkelfilterError("pymeshlab did not list its filters' parameters within 120 s") from None
+    if proc.returncode != 0:
+        raise SkelfilterError("pymeshlab failed listing its filters' parameters: "
+                              f"{proc.stderr.strip()[-300:]}")
+    lists, current = {}, None
+    for line in proc.stdout.splitlines():
+        header = _HEADER_RE.match(line)
+        if header:
+            current = lists.setdefault(header.group(1), {})
+            continue
+        param = _PARAM_RE.match(line)
+        if param and current is not None:
+            current[param.group(1)] = (param.group(2).strip(), param.group(3))
+    return lists
+
+
+def check_filter(element, pname, source):
+    """The parameters of a MeshLab filter element, checked against pymeshlab's list of the filter.
+
+    Parameters
+    ----------
+    element : mlx.FilterElement
+    pname : str
+        pymeshlab's name of the filter (:func:`python_filter_name`).
+    source : str
+        The script's name, for messages.
+
+    Returns
+    -------
+    params : dict
+        pymeshlab parameter name -> value the filter call takes.
+    attrs : dict
+        pymeshlab parameter name -> the <Param> attributes (what the child process is given).
+
+    Raises
+    ------
+    InputError
+        An unknown parameter, one given twice, a type that does not fit pymeshlab's, or a bad value;
+        the message names the filter, the parameter and the line.
+    """
+    known = parameter_lists().get(pname, {})
+    params, attrs = {}, {}
+    for p in element.params:
+        where = f"{source}:{p.line}: filter {element.name!r}, parameter {p.name!r}"
+        key = python_param_name(p.name)
+        if key not in known:
+            raise InputError(f"{where}: unknown parameter (pymeshlab's {pname} takes "
+                             f"{', '.join(known) or 'no parameters'})")
+        if key in params:
+            raise InputError(f"{where}: given twice")
+        kind = known[key][0]
+        allowed = _RICH_TYPES_OF.get(kind, ())
+        if not allowed:
+            raise InputError(f"{where}: pymeshlab cannot take a parameter of type {kind}")
+        if p.attrs.get("type") not in allowed:
+            raise InputError(f"{where}: wrong type {p.attrs.get('type')!r}; pymeshlab's {key} is of type "
+                             f"{kind} ({' or '.join(allowed)})")
+        params[key] = mlx.param_value(p.attrs, where)
+        attrs[key] = p.attrs
+    return params, attrs
+
+
+# ---------------------------------------------------------------------------------------------
+# the child process
+
+
+def _mesh_set(layers, current):
+    import pymeshlab
+
+    ms = pymeshlab.MeshSet()
+    for vertices, faces in layers:
+        ms.add_mesh(pymeshlab.Mesh(vertex_matrix=vertices, face_matrix=faces))
+    ms.set_current_mesh(current)
+    return ms
+
+
+def _layers(ms):
+    """The (vertices, faces) of every layer of ``ms`` in id order, and the current one's position."""
+    if ms.mesh_number() == 0:
+        raise SkelfilterError("no layer is left")
+    ids, i = [], 0
+    while len(ids) < ms.mesh_number():
+        if ms.mesh_id_exists(i):
+            ids.append(i)
+        i += 1
+    layers = []
+    for i in ids:
+        mesh = ms.mesh(i)
+        if not mesh.is_compact():
+            mesh.compact()
+        layers.append((mesh.vertex_matrix(), mesh.face_matrix()))
+    return layers, ids.index(ms.current_mesh_id())
+
+
+def apply_filter(ms, pname, params):
+    """Apply one pymeshlab filter to ``ms`` (MLS projections the safe way); returns the MeshSet."""
+    if pname not in MLS_FILTERS:
+        getattr(ms, pname)(**params)
+        return ms
+    import pymeshlab
+
+    layers, current = _layers(ms)
+    safe = _mesh_set([layers[current]], 0)
+    safe.compute_normal_per_vertex()
+    vertices, faces = layers[current]
+    safe.add_mesh(pymeshlab.Mesh(vertex_matrix=vertices, face_matrix=faces))
+    safe.set_current_mesh(0)
+    getattr(safe, pname)(**dict(params, controlmesh=0, proxymesh=1))
+    layers[current] = _layers(safe)[0][1]
+    return _mesh_set(layers, current)
+
+
+def _save_layers(path, layers, current):
+    arrays = {"current": np.array(current)}
+    for i, (vertices, faces) in enumerate(layers):
+        arrays[f"v{i}"] = np.ascontiguousarray(vertices, dtype=np.float64)
+        arrays[f"f{i}"] = np.ascontiguousarray(faces, dtype=np.int32).reshape(-1, 3)
+    np.savez(path, count=np.array(len(layers)), **arrays)
+
+
+def _load_layers(path):
+    with np.load(path) as z:
+        return [(z[f"v{i}"], z[f"f{i}"]) for i in range(int(z["count"]))], int(z["current"])
+
+
+def _child_main(workdir):
+    """Entry point of the child process: steps.json and layers.npz in, result.npz (or error.json) out."""
+    hook = os.environ.get(_TEST_HOOK_ENV)
+    if hook == "abort":
+        os.abort()
+    if hook == "sleep":
+        import time
+
+        time.sleep(3600)
+    with open(os.path.join(workdir, "steps.json"), encoding="utf-8") as f:
+        steps = json.load(f)
+    ms = _mesh_set(*_load_layers(os.path.join(workdir, "layers.npz")))
+    for i, step in enumerate(steps):
+        try:
+            params = {k: mlx.param_value(a, step["name"]) for k, a in step["params"].items()}
+            ms = apply_filter(ms, step["name"], params)
+            layers, current = _layers(ms)
+        except Exception as exc:
+            with open(os.path.join(workdir, "error.json"), "w", encoding="utf-8") as f:
+                json.dump({"step": i, "error": f"{type(exc).__name__}: {exc}"}, f)
+            sys.exit(3)
+    _save_layers(os.path.join(workdir, "result.npz"), layers, current)
+
+
+def signal_text(code):
+    try:
+        return f"{signal.strsignal(code) or signal.Signals(code).name} (signal {code})"
+    except (ValueError, AttributeError):
+        return f"signal {code}"
+
+
+def run_filters(layers, current, steps, timeout=300):
+    """Apply MeshLab filters to a stack of layers with pymeshlab, in a child process.
+
+    Parameters
+    ----------
+    layers : list of (vertices, faces)
+        Every layer, as float64 (n, 3) and int (m, 3) arrays.
+    current : int
+        Position of the current layer, which the filters act on.
+    steps : list of (str, dict, str)
+        pymeshlab filter name, its ``<Param>`` attributes by pymeshlab parameter name (see
+        :func:`check_filter`), and how messages name the step.
+    timeout : float
+        Seconds before the child is killed.
+
+    Returns
+    -------
+    (list of (vertices, faces), int)
+        Every layer after the filters, in id order, and the current one's position.
+
+    Raises
+    ------
+    SkelfilterError
+        The child crashed (the signal is named), timed out, or a filter raised (the step is named).
+    """
+    names = ", ".join(name for name, _, _ in steps)
+    package_parent = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (package_parent, env.get("PYTHONPATH")) if p)
+    with tempfile.TemporaryDirectory(prefix="skelfilter-meshlab-") as work:
+        with open(os.path.join(work, "steps.json"), "w", encoding="utf-8") as f:
+            json.dump([{"name": name, "params": attrs} for name, attrs, _ in steps], f)
+        _save_layers(os.path.join(work, "layers.npz"), layers, current)
+        cmd = [sys.executable, "-c",
+               "import sys; from skelfilter.meshlab_filters import _child_main; _child_main(sys.argv[1])",
+               work]
+        try:
+            proc = subprocess.run(cmd, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                  stderr=subprocess.PIPE, timeout=timeout)
+        except subprocess.TimeoutExpired:
+            raise SkelfilterError(f"{steps[0][2]}: MeshLab filters ({names}) did not finish within "
+                                  f"{timeout:g} s; the child process was killed") from None
+        if proc.returncode < 0:
+            raise SkelfilterError(f"{steps[0][2]}: pymeshlab crashed running {names}: "
+                                  f"{signal_text(-proc.returncode)}")
+        error_file = os.path.join(work, "error.json")
+        if os.path.exists(error_file):
+            with open(error_file, encoding="utf-8") as f:
+                error = json.load(f)
+            name, _, where = steps[error["step"]]
+            raise SkelfilterError(f"{where}: pymeshlab's {name} failed: {error['error']}")
+        if proc.returncode != 0:
+            tail = proc.stderr.decode("utf-8", "replace").strip().splitlines()[-3:]
+            raise SkelfilterError(f"{steps[0][2]}: the pymeshlab child process failed (exit status "
+                                  f"{proc.returncode}): {' | '.join(tail)}")
+        return _load_layers(os.path.join(work, "result.npz"))
