@@ -294,11 +294,38 @@ def _html(results, sweep_png):
             f"<style>{_STYLE}</style><script>{_SCRIPT}</script></head><body>" + "\n".join(body) + "</body></html>")
 
 
+def grid_picture(results, out_dir, kind="view", cell=(210, 170)):
+    """One PNG of a picture grid with model and method labels (``grid-<kind>.png``), for READMEs."""
+    from PIL import Image, ImageDraw, ImageFont
+
+    methods = [m["name"] for m in results["config"]["methods"]]
+    left, top = 150, 30
+    sheet = Image.new("RGB", (left + cell[0] * len(methods), top + cell[1] * len(results["cases"])), "white")
+    draw, font = ImageDraw.Draw(sheet), ImageFont.load_default(size=15)
+    for j, name in enumerate(methods):
+        draw.text((left + j * cell[0] + cell[0] // 2, top // 2), name, fill="black", font=font, anchor="mm")
+    for i, case in enumerate(results["cases"]):
+        y = top + i * cell[1]
+        draw.text((6, y + cell[1] // 2), case["name"].replace(", ", ",\n").replace(" (", "\n("), fill="black",
+                  font=font, anchor="lm")
+        for j, e in enumerate(case["methods"]):
+            if "images" in e:
+                with Image.open(os.path.join(out_dir, e["images"][kind])) as img:
+                    sheet.paste(img.convert("RGB").resize(cell), (left + j * cell[0], y))
+            else:
+                draw.text((left + j * cell[0] + 10, y + cell[1] // 2), "failed", fill="#a00", font=font)
+    name = f"grid-{kind}.png"
+    sheet.save(os.path.join(out_dir, name))
+    return name
+
+
 def write_report(results, out_dir, colour_range):
     """Write ``report.html``, ``report.md``, the colour scale and the sweep plot into ``out_dir``."""
     render.colour_bar(os.path.join(out_dir, "colour-scale.png"), colour_range,
                       "distance to the clean surface (voxels)")
     sweep_png = _sweep_plot(results["sweep"], out_dir) if results.get("sweep") else None
+    for kind, _ in PICTURES:
+        grid_picture(results, out_dir, kind)
     for name, text in (("report.md", _markdown(results, sweep_png)), ("report.html", _html(results, sweep_png))):
         tmp = os.path.join(out_dir, f".{name}.tmp")
         with open(tmp, "w", encoding="utf-8") as f:
