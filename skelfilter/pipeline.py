@@ -13,7 +13,7 @@ from . import edt_filters, importance, noise, reconstruct, saliency, skeleton, s
 from .distance import distance_and_features
 from .errors import InputError
 from .memory import check_grid_fits
-from .neighbourhood import ravel
+from .neighbourhood import unravel
 from .params import DenoiseParams, NoiseParams
 from .progress import Progress
 
@@ -64,10 +64,9 @@ def saliency_stage(volume, params, progress):
             voxels = skeleton.ie_skeleton(distance)
         else:
             voxels = skeleton.ima_skeleton(volume, features)
-        a, b = skeleton.extended_feature_points(volume, features, voxels)
+        a_flat, b_flat = skeleton.extended_feature_points(volume, features, voxels)
         del features
     with progress.step("importance"):
-        a_flat, b_flat = ravel(a, shape), ravel(b, shape)
         expansions = None
         if params.importance == "geodesic":
             rho, expansions = importance.geodesic_importance(
@@ -85,7 +84,7 @@ def saliency_stage(volume, params, progress):
     with progress.step("derivative measure"):
         adjacency = saliency.skeleton_adjacency(voxels, shape)
         if params.velocity == "feature":
-            v = saliency.feature_velocity(voxels, shape, a, b)
+            v = saliency.feature_velocity(voxels, shape, unravel(a_flat, shape), unravel(b_flat, shape))
         else:
             v = saliency.edt_gradient_velocity(distance, voxels)
         sigma_bar = saliency.derivative_measure(
