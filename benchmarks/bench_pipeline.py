@@ -4,7 +4,9 @@
 
 Each size runs in its own process, which only reads the noisy mesh, denoises it and
 writes the result (numba kernels load from the on-disk cache, so compilation is not
-timed; the noisy mesh is made beforehand by another process). Peak memory is the
+timed; the noisy mesh is made beforehand by another process). The JSON also holds
+each step's CPU time (all threads), which tells how much of a step's wall time on a
+shared machine was spent waiting. Peak memory is the
 process' resident peak (VmHWM, everything included): it is read at the end of every
 step and then reset through /proc/self/clear_refs, so a step's peak also covers the
 work between it and the previous step. In the same process, after the pipeline, one
@@ -68,12 +70,15 @@ def run_one(size, src):
         def __init__(self):
             super().__init__(enabled=False)
             self.memory = {}
+            self.cpu = {}
 
         @contextmanager
         def step(self, name):
+            cpu = time.process_time()
             with super().step(name):
                 yield
             key = self._prefix + name
+            self.cpu[key] = self.cpu.get(key, 0.0) + time.process_time() - cpu
             self.memory[key] = max(self.memory.get(key, 0.0), _peak_rss_mib())
             _reset_peak()
 
@@ -115,6 +120,7 @@ def run_one(size, src):
         "peak_rss_mib": peak,
         "bytes_per_voxel": peak * MIB / grid.n_voxels,
         "steps_s": probe.timings,
+        "steps_cpu_s": probe.cpu,
         "steps_peak_mib": probe.memory,
         "stages": stages,
     }

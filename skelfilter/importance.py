@@ -41,18 +41,25 @@ def boundary_layer(volume):
         Background voxels with at least one 26-neighbour in X; ``b`` is the
         3x3x3 cube and the dilation does not extend past the volume's faces.
     """
-    x = np.asarray(volume, dtype=bool)
-    grown = x.copy()
-    # The cube is the product of three 3-voxel segments: dilating along each axis in
-    # turn is ten times faster than ndimage.binary_dilation with the cube.
-    for axis in range(3):
-        head, tail = [slice(None)] * 3, [slice(None)] * 3
-        head[axis], tail[axis] = slice(1, None), slice(None, -1)
-        head, tail = tuple(head), tuple(tail)
-        before = grown.copy()
-        grown[head] |= before[tail]
-        grown[tail] |= before[head]
-    return grown & ~x
+    x = np.ascontiguousarray(volume, dtype=bool)
+    boundary = np.empty_like(x)
+    _boundary_layer(x, boundary)
+    return boundary
+
+
+@njit(cache=True, parallel=True)
+def _boundary_layer(x, out):
+    nx, ny, nz = x.shape
+    for i in prange(nx):
+        for j in range(ny):
+            for k in range(nz):
+                hit = False
+                if not x[i, j, k]:
+                    for a in range(max(i - 1, 0), min(i + 2, nx)):
+                        for b in range(max(j - 1, 0), min(j + 2, ny)):
+                            for c in range(max(k - 1, 0), min(k + 2, nz)):
+                                hit |= x[a, b, c]
+                out[i, j, k] = hit
 
 
 def euclidean_importance(shape, a, b):
