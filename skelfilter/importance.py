@@ -201,19 +201,37 @@ def _graph(boundary, coords):
     """
     padded = tuple(s + 2 for s in boundary.shape)
     # Node ids in a volume padded by one voxel, so neighbours never need bounds checks.
-    lookup = np.full(padded, -1, dtype=np.int32)
+    lookup = np.full(padded, -1, dtype=np.int32).reshape(-1)
     here = ravel(coords + 1, padded)
-    lookup.reshape(-1)[here] = np.arange(len(coords), dtype=np.int32)
-    lookup = lookup.reshape(-1)
-    table = np.empty((len(coords), 26), dtype=np.int32)
-    for k, step in enumerate(flat_offsets(padded, OFFSETS_26)):
-        table[:, k] = lookup[here + step]
-    del lookup
-    present = table >= 0
+    lookup[here] = np.arange(len(coords), dtype=np.int32)
+    offsets = flat_offsets(padded, OFFSETS_26)
     indptr = np.zeros(len(coords) + 1, dtype=np.int64)
-    np.cumsum(present.sum(axis=1), out=indptr[1:])
-    changed = np.abs(OFFSETS_26).sum(axis=1).astype(np.uint8)
-    return indptr, table[present], np.broadcast_to(changed, table.shape)[present]
+    np.cumsum(_degree(lookup, here, offsets), out=indptr[1:])
+    indices = np.empty(indptr[-1], dtype=np.int32)
+    steps = np.empty(indptr[-1], dtype=np.uint8)
+    _edges(lookup, here, offsets, np.abs(OFFSETS_26).sum(axis=1).astype(np.uint8), indptr, indices, steps)
+    return indptr, indices, steps
+
+
+@njit(cache=True, parallel=True)
+def _degree(lookup, here, offsets):
+    degree = np.zeros(here.size, dtype=np.int64)
+    for n in prange(here.size):
+        for o in offsets:
+            degree[n] += lookup[here[n] + o] >= 0
+    return degree
+
+
+@njit(cache=True, parallel=True)
+def _edges(lookup, here, offsets, changed, indptr, indices, steps):
+    for n in prange(here.size):
+        e = indptr[n]
+        for k in range(offsets.size):
+            m = lookup[here[n] + offsets[k]]
+            if m >= 0:
+                indices[e] = m
+                steps[e] = changed[k]
+                e += 1
 
 
 @njit(cache=True)

@@ -100,6 +100,7 @@ def saliency_stage(volume, params, progress):
         )
         kept = rho_plus >= params.threshold_voxels
         centres = voxels[kept]
+        del adjacency, v, a_flat, b_flat
     with progress.step("EDT filter"):
         radii = distance.reshape(-1)[centres]
         if params.edt_filter == "minify":
