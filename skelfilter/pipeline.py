@@ -12,7 +12,7 @@ import numpy as np
 from . import edt_filters, importance, noise, reconstruct, saliency, skeleton, surface, voxelize
 from .distance import distance_and_features
 from .errors import InputError
-from .memory import check_grid_fits
+from .memory import check_grid_fits, return_freed_memory
 from .neighbourhood import bounding_box, unravel
 from .params import DenoiseParams, NoiseParams
 from .progress import Progress
@@ -221,6 +221,7 @@ def denoise_volume(volume, params=None, progress=None, **overrides):
     pad = params.padding_voxels
     padded_shape = tuple(s + 2 * pad for s in volume.shape)
     check_grid_fits(padded_shape)
+    return_freed_memory()
     padded = np.pad(volume, pad)
     progress = progress or Progress(enabled=False)
     result = denoise_padded(padded, params, progress)
@@ -234,6 +235,7 @@ def _voxelize(mesh, resolution, padding, progress):
     """Occupancy of a mesh on its padded grid, memory checked before allocating."""
     grid = voxelize.grid_for_bounds(mesh.bounds, resolution, padding)
     check_grid_fits(grid.shape)
+    return_freed_memory()
     with progress.step("voxelize"):
         occupancy = voxelize.voxelize_on_grid(mesh, grid)
     if not occupancy.any():
