@@ -140,6 +140,22 @@ def exponents(results):
     return fits
 
 
+def targets(results, fits):
+    """The issue's targets that this run can check: name -> (measured, limit, met)."""
+    by_size = {r["size"]: r for r in results}
+    checks = {}
+    if 256 in by_size:
+        checks["total at 256 (s)"] = by_size[256]["total_s"], 15.0
+    for r in results:
+        checks[f"total / EDT at {r['size']}"] = r["edt_ratio"], 5.0
+    if len(results) >= 4:
+        step, worst = max(((k, v) for k, v in fits.items() if k != "edt_with_indices"), key=lambda kv: kv[1])
+        checks[f"largest exponent ({step})"] = worst, 1.15
+    if 384 in by_size:
+        checks["bytes per voxel at 384"] = by_size[384]["bytes_per_voxel"], 40.0
+    return {name: (value, limit, bool(value <= limit)) for name, (value, limit) in checks.items()}
+
+
 def _child(*args):
     out = subprocess.run([sys.executable, __file__, *map(str, args)], check=True, capture_output=True, text=True)
     return out.stdout.strip().splitlines()[-1] if out.stdout.strip() else ""
@@ -180,8 +196,10 @@ def print_table(results, fits, info):
             "11d")
         row(f"{stage} A* nodes per search",
             [r["stages"].get(stage, {}).get("astar_expansions_mean", 0.0) for r in results], "11.1f")
-    print("peak memory per step (MiB): " + "; ".join(
+    print("step with the highest peak: " + "; ".join(
         f"{r['size']}: {max(r['steps_peak_mib'], key=r['steps_peak_mib'].get)}" for r in results))
+    for name, (value, limit, met) in targets(results, fits).items():
+        print(f"target {name}: {value:.2f} (limit {limit:g}) {'met' if met else 'NOT met'}")
 
 
 def main():
@@ -215,7 +233,8 @@ def main():
     print_table(results, fits, info)
     if args.json:
         with open(args.json, "w") as f:
-            json.dump({"machine": info, "results": results, "exponents": fits}, f, indent=2)
+            json.dump({"machine": info, "results": results, "exponents": fits, "targets": targets(results, fits)},
+                      f, indent=2)
     return 0
 
 

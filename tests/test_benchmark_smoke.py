@@ -31,3 +31,4 @@ def test_benchmark_writes_every_figure(tmp_path):
             assert s["astar_searches"] > 0 and s["astar_expansions_mean"] >= 1
     assert large["voxels"] > small["voxels"]
     assert set(data["exponents"]) == set(small["steps_s"]) | {"total", "edt_with_indices"}
+    assert set(data["targets"]) == {"total / EDT at 48", "total / EDT at 56"}
