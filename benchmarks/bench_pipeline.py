@@ -1,10 +1,19 @@
-"""Per-stage time and peak memory of the pipeline on fandisk, mesh file to mesh file.
+"""Per-step time and peak memory of the pipeline on fandisk, mesh file to mesh file.
 
-    python benchmarks/bench_pipeline.py [--sizes 128 192 256] [--json out.json]
+    python benchmarks/bench_pipeline.py [--sizes 128 192 256 384] [--with-512] [--json out.json]
 
-Each size runs in its own process (numba kernels load from the on-disk cache,
-so compilation is not timed). Peak memory per step is the process' resident
-peak (VmHWM), reset before every step through /proc/self/clear_refs.
+Each size runs in its own process, which only reads the noisy mesh, denoises it and
+writes the result (numba kernels load from the on-disk cache, so compilation is not
+timed; the noisy mesh is made beforehand by another process). The JSON also holds
+each step's CPU time (all threads), which tells how much of a step's wall time on a
+shared machine was spent waiting. Peak memory is the
+process' resident peak (VmHWM, everything included): it is read at the end of every
+step and then reset through /proc/self/clear_refs, so a step's peak also covers the
+work between it and the previous step. In the same process, after the pipeline, one
+``scipy.ndimage.distance_transform_edt(return_indices=True)`` on the same padded grid
+is timed: the ratio of the pipeline to it holds on a loaded machine where seconds don't.
+The exponent of each step is the slope of log(time) against log(grid voxels) over the
+sizes run.
 """
 
 import argparse
@@ -17,8 +26,11 @@ import tempfile
 import time
 from contextlib import contextmanager
 
+import numpy as np
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 SAMPLE = os.path.join(HERE, "..", "skelfilter", "data", "fandisk.obj")
+MIB = 2**20
 
 
 def _peak_rss_mib():
@@ -37,93 +49,192 @@ def _reset_peak():
         return
 
 
-def run_one(size, seed=1):
-    """Noise fandisk at ``size``, write it, then time denoising file to file."""
+def make_noisy(size, path, seed=1):
+    """Fandisk voxelized at ``size`` with the thesis' stripes, as a mesh file."""
     from skelfilter import io, pipeline
-    from skelfilter.params import DenoiseParams, NoiseParams
+    from skelfilter.params import NoiseParams
+
+    noisy, _, _ = pipeline.noisy_mesh(io.load_mesh(SAMPLE), NoiseParams(resolution=size, seed=seed))
+    io.save_mesh(noisy, path)
+
+
+def run_one(size, src):
+    """Denoise the mesh file ``src`` at ``size``, file to file; then time the reference EDT."""
+    from scipy import ndimage
+
+    from skelfilter import io, pipeline, voxelize
+    from skelfilter.params import DenoiseParams
     from skelfilter.progress import Progress
 
     class Probe(Progress):
         def __init__(self):
             super().__init__(enabled=False)
             self.memory = {}
+            self.cpu = {}
 
         @contextmanager
         def step(self, name):
-            _reset_peak()
+            cpu = time.process_time()
             with super().step(name):
                 yield
             key = self._prefix + name
+            self.cpu[key] = self.cpu.get(key, 0.0) + time.process_time() - cpu
             self.memory[key] = max(self.memory.get(key, 0.0), _peak_rss_mib())
+            _reset_peak()
 
-    clean = io.load_mesh(SAMPLE)
-    noisy, _, _ = pipeline.noisy_mesh(clean, NoiseParams(resolution=size, seed=seed))
+    params = DenoiseParams(resolution=size)
+    probe = Probe()
     with tempfile.TemporaryDirectory() as tmp:
-        src, dst = os.path.join(tmp, "noisy.ply"), os.path.join(tmp, "denoised.ply")
-        io.save_mesh(noisy, src)
-        probe = Probe()
+        dst = os.path.join(tmp, "denoised.ply")
+        _reset_peak()
         start = time.perf_counter()
         with probe.step("read"):
             mesh = io.load_mesh(src)
-        out, result, grid = pipeline.denoise_mesh_detailed(mesh, DenoiseParams(resolution=size), probe)
+        out, result, grid = pipeline.denoise_mesh_detailed(mesh, params, probe)
         with probe.step("write"):
             io.save_mesh(out, dst)
         total = time.perf_counter() - start
+    peak = max(probe.memory.values())
     stages = {}
     for name, stage in result.stages.items():
         s = stage.skeleton
-        expansions = s.expansions[s.expansions > 0] if s.expansions is not None else []
+        searched = s.expansions[s.expansions > 0] if s.expansions is not None else np.zeros(0)
         stages[name] = {
             "skeleton_voxels": int(len(s.voxels)),
             "kept": int(s.kept.sum()),
-            "astar_expansions_mean": float(expansions.mean()) if len(expansions) else 0.0,
+            "astar_searches": int(len(searched)),
+            "astar_expansions_mean": float(searched.mean()) if len(searched) else 0.0,
         }
+    del out, result
+    occupancy = voxelize.voxelize_on_grid(mesh, grid)
+    start = time.perf_counter()
+    ndimage.distance_transform_edt(occupancy, return_indices=True)
+    edt = time.perf_counter() - start
     return {
         "size": size,
         "grid": list(grid.shape),
         "voxels": int(grid.n_voxels),
         "total_s": total,
-        "peak_rss_mib": max(probe.memory.values()),
+        "edt_with_indices_s": edt,
+        "edt_ratio": total / edt,
+        "peak_rss_mib": peak,
+        "bytes_per_voxel": peak * MIB / grid.n_voxels,
         "steps_s": probe.timings,
+        "steps_cpu_s": probe.cpu,
         "steps_peak_mib": probe.memory,
         "stages": stages,
     }
 
 
+def exponents(results):
+    """Slope of log(time) against log(voxels) per step and for the total (None below 2 sizes)."""
+    if len(results) < 2:
+        return {}
+    x = np.log([r["voxels"] for r in results])
+    fits = {}
+    for step in results[0]["steps_s"]:
+        t = np.array([max(r["steps_s"].get(step, 0.0), 1e-4) for r in results])
+        fits[step] = float(np.polyfit(x, np.log(t), 1)[0])
+    fits["total"] = float(np.polyfit(x, np.log([r["total_s"] for r in results]), 1)[0])
+    fits["edt_with_indices"] = float(np.polyfit(x, np.log([r["edt_with_indices_s"] for r in results]), 1)[0])
+    return fits
+
+
+def targets(results, fits):
+    """The issue's targets that this run can check: name -> (measured, limit, met)."""
+    by_size = {r["size"]: r for r in results}
+    checks = {}
+    if 256 in by_size:
+        checks["total at 256 (s)"] = by_size[256]["total_s"], 15.0
+    for r in results:
+        checks[f"total / EDT at {r['size']}"] = r["edt_ratio"], 5.0
+    if len(results) >= 4:
+        step, worst = max(((k, v) for k, v in fits.items() if k != "edt_with_indices"), key=lambda kv: kv[1])
+        checks[f"largest exponent ({step})"] = worst, 1.15
+    if 384 in by_size:
+        checks["bytes per voxel at 384"] = by_size[384]["bytes_per_voxel"], 40.0
+    return {name: (value, limit, bool(value <= limit)) for name, (value, limit) in checks.items()}
+
+
+def _child(*args):
+    out = subprocess.run([sys.executable, __file__, *map(str, args)], check=True, capture_output=True, text=True)
+    return out.stdout.strip().splitlines()[-1] if out.stdout.strip() else ""
+
+
+def machine():
+    """A one-line description of the machine and its load when the run started."""
+    load = os.getloadavg() if hasattr(os, "getloadavg") else (float("nan"),) * 3
+    return {
+        "processor": platform.processor() or platform.machine(),
+        "cores": os.cpu_count(),
+        "python": platform.python_version(),
+        "load_average_1min": load[0],
+    }
+
+
+def print_table(results, fits, info):
+    print(f"machine: {info['processor']}, {info['cores']} cores, python {info['python']}, "
+          f"load average {info['load_average_1min']:.2f} at start")
+    cols = "".join(f"{r['size']:>10d}³" for r in results)
+    print(f"{'step (seconds)':40s}{cols}  exponent")
+
+    def row(label, values, fmt, fit=None):
+        tail = f"  {fit:8.2f}" if fit is not None else ""
+        print(f"{label:40s}" + "".join(format(v, fmt) for v in values) + tail)
+
+    for step in results[0]["steps_s"]:
+        row(step, [r["steps_s"].get(step, 0.0) for r in results], "11.2f", fits.get(step))
+    row("total, mesh file to mesh file", [r["total_s"] for r in results], "11.2f", fits.get("total"))
+    row("scipy EDT with indices, same grid", [r["edt_with_indices_s"] for r in results], "11.2f",
+        fits.get("edt_with_indices"))
+    row("ratio total / EDT", [r["edt_ratio"] for r in results], "11.2f")
+    row("peak resident memory (MiB)", [r["peak_rss_mib"] for r in results], "11.0f")
+    row("bytes per grid voxel", [r["bytes_per_voxel"] for r in results], "11.1f")
+    row("grid voxels (millions)", [r["voxels"] / 1e6 for r in results], "11.2f")
+    for stage in ("foreground", "background"):
+        row(f"{stage} skeleton voxels", [r["stages"].get(stage, {}).get("skeleton_voxels", 0) for r in results],
+            "11d")
+        row(f"{stage} A* nodes per search",
+            [r["stages"].get(stage, {}).get("astar_expansions_mean", 0.0) for r in results], "11.1f")
+    print("step with the highest peak: " + "; ".join(
+        f"{r['size']}: {max(r['steps_peak_mib'], key=r['steps_peak_mib'].get)}" for r in results))
+    for name, (value, limit, met) in targets(results, fits).items():
+        print(f"target {name}: {value:.2f} (limit {limit:g}) {'met' if met else 'NOT met'}")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--sizes", type=int, nargs="+", default=[128, 192, 256])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[128, 192, 256, 384])
+    parser.add_argument("--with-512", action="store_true", help="also run 512 (about 150 M voxels)")
     parser.add_argument("--json", help="also write the results as JSON here")
-    parser.add_argument("--one", type=int, help=argparse.SUPPRESS)
+    parser.add_argument("--noisy", nargs=2, help=argparse.SUPPRESS)
+    parser.add_argument("--one", nargs=2, help=argparse.SUPPRESS)
     args = parser.parse_args()
-    if args.one:
-        print(json.dumps(run_one(args.one)))
+    if args.noisy:
+        make_noisy(int(args.noisy[0]), args.noisy[1])
         return 0
-    # Warm the numba cache once so no size pays for compilation.
-    subprocess.run([sys.executable, __file__, "--one", "32"], check=True, capture_output=True)
+    if args.one:
+        print(json.dumps(run_one(int(args.one[0]), args.one[1])))
+        return 0
+    sizes = args.sizes + ([512] if args.with_512 else [])
+    info = machine()
     results = []
-    for size in args.sizes:
-        out = subprocess.run([sys.executable, __file__, "--one", str(size)], check=True, capture_output=True,
-                             text=True)
-        results.append(json.loads(out.stdout.strip().splitlines()[-1]))
-    steps = list(results[0]["steps_s"])
-    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, python "
-          f"{platform.python_version()}")
-    header = f"{'step':38s}" + "".join(f"{r['size']:>9d}³ s" for r in results)
-    print(header)
-    for step in steps:
-        print(f"{step:38s}" + "".join(f"{r['steps_s'].get(step, 0):11.2f}" for r in results))
-    print(f"{'total (file to file)':38s}" + "".join(f"{r['total_s']:11.2f}" for r in results))
-    print(f"{'peak resident memory (MiB)':38s}" + "".join(f"{r['peak_rss_mib']:11.0f}" for r in results))
-    print(f"{'grid voxels (millions)':38s}" + "".join(f"{r['voxels'] / 1e6:11.1f}" for r in results))
-    for stage in ("foreground", "background"):
-        print(f"{stage + ' skeleton voxels':38s}" + "".join(
-            f"{r['stages'].get(stage, {}).get('skeleton_voxels', 0):11d}" for r in results))
-        print(f"{stage + ' A* nodes per search':38s}" + "".join(
-            f"{r['stages'].get(stage, {}).get('astar_expansions_mean', 0):11.1f}" for r in results))
+    with tempfile.TemporaryDirectory() as tmp:
+        # Warm the numba cache once so no size pays for compilation.
+        warm = os.path.join(tmp, "warm.ply")
+        _child("--noisy", 32, warm)
+        _child("--one", 32, warm)
+        for size in sizes:
+            src = os.path.join(tmp, f"noisy-{size}.ply")
+            _child("--noisy", size, src)
+            results.append(json.loads(_child("--one", size, src)))
+            print(f"  {size}: {results[-1]['total_s']:.1f} s", file=sys.stderr)
+    fits = exponents(results)
+    print_table(results, fits, info)
     if args.json:
         with open(args.json, "w") as f:
-            json.dump(results, f, indent=2)
+            json.dump({"machine": info, "results": results, "exponents": fits, "targets": targets(results, fits)},
+                      f, indent=2)
     return 0
 
 

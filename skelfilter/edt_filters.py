@@ -9,7 +9,7 @@ from scipy import ndimage
 from numba import njit, prange
 
 from .errors import ParameterError
-from .neighbourhood import ball_offsets, unravel
+from .neighbourhood import ball_offsets, bounding_box, unravel
 
 
 @njit(cache=True, parallel=True)
@@ -96,7 +96,14 @@ def specks(mask, radius=3.0):
     """
     limit = 4.0 / 3.0 * np.pi * radius**3
     flip = np.zeros_like(mask)
-    for target in (mask, ~mask):
+    # Only the box around the mask, one voxel wider, can hold specks: outside
+    # it the complement is one piece with the box's outer layer, which has
+    # the outside's fate (never flipped: it is the largest, or not small).
+    crop = bounding_box(mask, margin=1)
+    if crop is None:
+        return flip
+    inner = mask[crop]
+    for target in (inner, ~inner):
         labels, n = ndimage.label(target)
         if n <= 1:
             continue
@@ -104,5 +111,5 @@ def specks(mask, radius=3.0):
         small = sizes < limit
         small[0] = False
         small[np.argmax(sizes[1:]) + 1] = False
-        flip |= small[labels]
+        flip[crop] |= small[labels]
     return flip

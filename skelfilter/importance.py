@@ -20,6 +20,9 @@ from numba import njit, prange
 from .errors import ParameterError
 from .neighbourhood import OFFSETS_26, flat_offsets, ravel, unravel
 
+# Node ids are numbered by blocks of 2**_BLOCK_BITS voxels a side.
+_BLOCK_BITS = 3
+
 # Step length by number of coordinates that change (0 to 3).
 _STEP = (0.0, 1.0, math.sqrt(2.0), math.sqrt(3.0))
 
@@ -38,18 +41,25 @@ def boundary_layer(volume):
         Background voxels with at least one 26-neighbour in X; ``b`` is the
         3x3x3 cube and the dilation does not extend past the volume's faces.
     """
-    x = np.asarray(volume, dtype=bool)
-    grown = x.copy()
-    # The cube is the product of three 3-voxel segments: dilating along each axis in
-    # turn is ten times faster than ndimage.binary_dilation with the cube.
-    for axis in range(3):
-        head, tail = [slice(None)] * 3, [slice(None)] * 3
-        head[axis], tail[axis] = slice(1, None), slice(None, -1)
-        head, tail = tuple(head), tuple(tail)
-        before = grown.copy()
-        grown[head] |= before[tail]
-        grown[tail] |= before[head]
-    return grown & ~x
+    x = np.ascontiguousarray(volume, dtype=bool)
+    boundary = np.empty_like(x)
+    _boundary_layer(x, boundary)
+    return boundary
+
+
+@njit(cache=True, parallel=True)
+def _boundary_layer(x, out):
+    nx, ny, nz = x.shape
+    for i in prange(nx):
+        for j in range(ny):
+            for k in range(nz):
+                hit = False
+                if not x[i, j, k]:
+                    for a in range(max(i - 1, 0), min(i + 2, nx)):
+                        for b in range(max(j - 1, 0), min(j + 2, ny)):
+                            for c in range(max(k - 1, 0), min(k + 2, nz)):
+                                hit |= x[a, b, c]
+                out[i, j, k] = hit
 
 
 def euclidean_importance(shape, a, b):
@@ -147,12 +157,12 @@ def geodesic_importance(boundary, a, b, cap):
         return np.zeros(0, np.float32), np.zeros(0, np.int32)
 
     nodes = np.flatnonzero(flat)
-    coords = unravel(nodes, boundary.shape).astype(np.int32)
     ia = np.searchsorted(nodes, a)
     ib = np.searchsorted(nodes, b)
     key = np.minimum(ia, ib) * len(nodes) + np.maximum(ia, ib)
     key, inverse = np.unique(key, return_inverse=True)
     source, target = np.divmod(key, len(nodes))
+    coords = unravel(nodes, boundary.shape).astype(np.int32)
     m1, m2, m3 = np.sort(np.abs(coords[source] - coords[target]), axis=1).T
     # Rounded as in _grid_distance, so both sides agree on which searches can run.
     lower = (_STEP[3] * m1 + _STEP[2] * (m2 - m1) + (m3 - m2)).astype(np.float32)
@@ -164,30 +174,64 @@ def geodesic_importance(boundary, a, b, cap):
     connected = ~disconnected_pairs(boundary, nodes[source], nodes[target])
     run = np.flatnonzero((source != target) & (lower < np.float32(cap)) & connected)
     if len(run):
-        indptr, indices = _graph(boundary, coords)
+        # Searches stay in a small region: ids numbered block by block keep
+        # each search's nodes close in memory. Results do not depend on ids.
+        block = coords >> _BLOCK_BITS
+        order = np.lexsort((block[:, 2], block[:, 1], block[:, 0])).astype(np.int32)
+        rank = np.empty_like(order)
+        rank[order] = np.arange(len(order), dtype=np.int32)
+        coords = coords[order]
+        indptr, indices, steps = _graph(boundary, coords)
+        sources, targets = rank[source[run]], rank[target[run]]
+        by_source = np.argsort(sources, kind="stable")
         n_chunks = min(numba.get_num_threads(), len(run))
-        rho[run], expanded[run] = _astar(
-            indptr, indices, coords, source[run], target[run], np.float32(cap), n_chunks
+        rho_run, expanded_run = _astar(
+            indptr, indices, steps, coords, sources[by_source], targets[by_source], np.float32(cap), n_chunks
         )
+        rho[run[by_source]], expanded[run[by_source]] = rho_run, expanded_run
     return rho[inverse], expanded[inverse]
 
 
 def _graph(boundary, coords):
-    """CSR adjacency (indptr int64, indices int32) of M's 26-graph over compact node ids."""
+    """CSR adjacency of M's 26-graph over node ids (the rows of ``coords``).
+
+    Returns ``indptr`` (int64), ``indices`` (int32) and ``steps`` (uint8, the
+    number of coordinates each edge changes); each node's neighbours come in
+    the order of ``OFFSETS_26``.
+    """
     padded = tuple(s + 2 for s in boundary.shape)
     # Node ids in a volume padded by one voxel, so neighbours never need bounds checks.
-    lookup = np.full(padded, -1, dtype=np.int32)
-    lookup[1:-1, 1:-1, 1:-1][boundary] = np.arange(len(coords), dtype=np.int32)
-    lookup = lookup.reshape(-1)
+    lookup = np.full(padded, -1, dtype=np.int32).reshape(-1)
     here = ravel(coords + 1, padded)
-    table = np.empty((len(coords), 26), dtype=np.int32)
-    for k, step in enumerate(flat_offsets(padded, OFFSETS_26)):
-        table[:, k] = lookup[here + step]
-    del lookup
-    present = table >= 0
+    lookup[here] = np.arange(len(coords), dtype=np.int32)
+    offsets = flat_offsets(padded, OFFSETS_26)
     indptr = np.zeros(len(coords) + 1, dtype=np.int64)
-    np.cumsum(present.sum(axis=1), out=indptr[1:])
-    return indptr, table[present]
+    np.cumsum(_degree(lookup, here, offsets), out=indptr[1:])
+    indices = np.empty(indptr[-1], dtype=np.int32)
+    steps = np.empty(indptr[-1], dtype=np.uint8)
+    _edges(lookup, here, offsets, np.abs(OFFSETS_26).sum(axis=1).astype(np.uint8), indptr, indices, steps)
+    return indptr, indices, steps
+
+
+@njit(cache=True, parallel=True)
+def _degree(lookup, here, offsets):
+    degree = np.zeros(here.size, dtype=np.int64)
+    for n in prange(here.size):
+        for o in offsets:
+            degree[n] += lookup[here[n] + o] >= 0
+    return degree
+
+
+@njit(cache=True, parallel=True)
+def _edges(lookup, here, offsets, changed, indptr, indices, steps):
+    for n in prange(here.size):
+        e = indptr[n]
+        for k in range(offsets.size):
+            m = lookup[here[n] + offsets[k]]
+            if m >= 0:
+                indices[e] = m
+                steps[e] = changed[k]
+                e += 1
 
 
 @njit(cache=True)
@@ -253,7 +297,7 @@ def _grid_distance(coords, u, t):
 
 
 @njit(cache=True)
-def _astar_chunk(indptr, indices, coords, sources, targets, cap, first, stride, rho, expanded):
+def _astar_chunk(indptr, indices, steps, coords, sources, targets, cap, first, stride, rho, expanded):
     """Queries ``first, first + stride, ...`` in turn, sharing one set of scratch arrays."""
     n = len(indptr) - 1
     g = np.empty(n, dtype=np.float32)
@@ -284,12 +328,7 @@ def _astar_chunk(indptr, indices, coords, sources, targets, cap, first, stride, 
                 break
             for e in range(indptr[u], indptr[u + 1]):
                 v = indices[e]
-                changed = (
-                    abs(coords[u, 0] - coords[v, 0])
-                    + abs(coords[u, 1] - coords[v, 1])
-                    + abs(coords[u, 2] - coords[v, 2])
-                )
-                gv = np.float32(gu + np.float32(_STEP[changed]))
+                gv = np.float32(gu + np.float32(_STEP[steps[e]]))
                 if stamp[v] == tag and gv >= g[v]:
                     continue
                 stamp[v] = tag
@@ -307,13 +346,13 @@ def _astar_chunk(indptr, indices, coords, sources, targets, cap, first, stride, 
 
 
 @njit(cache=True, parallel=True)
-def _astar(indptr, indices, coords, sources, targets, cap, n_chunks):
+def _astar(indptr, indices, steps, coords, sources, targets, cap, n_chunks):
     rho = np.empty(len(sources), dtype=np.float32)
     expanded = np.empty(len(sources), dtype=np.int32)
     # Strided chunks: neighbouring (sorted) queries are spatially close, so each chunk
     # keeps some locality while the chunks get statistically equal work.
     for c in prange(n_chunks):
-        _astar_chunk(indptr, indices, coords, sources, targets, cap, c, n_chunks, rho, expanded)
+        _astar_chunk(indptr, indices, steps, coords, sources, targets, cap, c, n_chunks, rho, expanded)
     return rho, expanded
 
 

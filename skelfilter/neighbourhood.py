@@ -58,3 +58,18 @@ def has_border_margin(volume, margin=1):
     m = margin
     inner = v[m:-m, m:-m, m:-m].sum() if all(s > 2 * m for s in v.shape) else 0
     return int(inner) == int(v.sum())
+
+
+def bounding_box(volume, margin=0):
+    """Slices of the smallest box holding every set voxel, widened by ``margin`` and clipped to the volume.
+
+    Found from the set's projections on the three axes, without listing its
+    voxels. ``None`` when no voxel is set.
+    """
+    box = []
+    for axis in range(3):
+        hit = np.flatnonzero(volume.any(axis=tuple(a for a in range(3) if a != axis)))
+        if not len(hit):
+            return None
+        box.append(slice(max(int(hit[0]) - margin, 0), int(hit[-1]) + 1 + margin))
+    return tuple(box)

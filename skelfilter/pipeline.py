@@ -12,8 +12,8 @@ import numpy as np
 from . import edt_filters, importance, noise, reconstruct, saliency, skeleton, surface, voxelize
 from .distance import distance_and_features
 from .errors import InputError
-from .memory import check_grid_fits
-from .neighbourhood import ravel
+from .memory import check_grid_fits, return_freed_memory
+from .neighbourhood import bounding_box, unravel
 from .params import DenoiseParams, NoiseParams
 from .progress import Progress
 
@@ -64,10 +64,9 @@ def saliency_stage(volume, params, progress):
             voxels = skeleton.ie_skeleton(distance)
         else:
             voxels = skeleton.ima_skeleton(volume, features)
-        a, b = skeleton.extended_feature_points(volume, features, voxels)
+        a_flat, b_flat = skeleton.extended_feature_points(volume, features, voxels)
         del features
     with progress.step("importance"):
-        a_flat, b_flat = ravel(a, shape), ravel(b, shape)
         expansions = None
         if params.importance == "geodesic":
             rho, expansions = importance.geodesic_importance(
@@ -85,7 +84,7 @@ def saliency_stage(volume, params, progress):
     with progress.step("derivative measure"):
         adjacency = saliency.skeleton_adjacency(voxels, shape)
         if params.velocity == "feature":
-            v = saliency.feature_velocity(voxels, shape, a, b)
+            v = saliency.feature_velocity(voxels, shape, unravel(a_flat, shape), unravel(b_flat, shape))
         else:
             v = saliency.edt_gradient_velocity(distance, voxels)
         sigma_bar = saliency.derivative_measure(
@@ -101,23 +100,18 @@ def saliency_stage(volume, params, progress):
         )
         kept = rho_plus >= params.threshold_voxels
         centres = voxels[kept]
+        del adjacency, v, a_flat, b_flat
     with progress.step("EDT filter"):
         radii = distance.reshape(-1)[centres]
         if params.edt_filter == "minify":
             # Eq. 6.1 keeps the filter anti-extensive, but on a discrete EDT
             # (D >= 1 on X) the +r correction can exceed D by up to 1: cap it.
             radii = np.minimum(edt_filters.minify(distance, centres, params.minify_radius), radii)
-    with progress.step("reconstruction"):
         # Balls of radius D reach the centres of the nearest outside voxels;
         # shrunk by half a voxel they end on the voxel boundary, so the
         # reconstruction is the voxel set whose centres lie inside the
         # union, and ripples under half a voxel vanish.
         radii = np.maximum(radii - surface.SURFACE_OFFSET, 0.0)
-        power, owner = reconstruct.reverse_edt(shape, centres, radii)
-        mask = reconstruct.reconstruction(power)
-        del power
-        phi = reconstruct.signed_distance(shape, centres, radii, owner)
-        del owner
     data = SkeletonData(
         voxels=voxels,
         distance=distance.reshape(-1)[voxels],
@@ -128,11 +122,19 @@ def saliency_stage(volume, params, progress):
         radii=radii,
         expansions=expansions,
     )
+    del distance
+    with progress.step("reconstruction"):
+        mask, phi = reconstruct.union_of_balls(shape, centres, radii)
     return StageResult(mask=mask, field=phi, skeleton=data)
 
 
 def denoise_padded(volume, params, progress):
-    """Both stages on a volume whose set keeps ``params.padding_voxels`` from the faces."""
+    """Both stages on a volume whose set keeps ``params.padding_voxels`` from the faces.
+
+    Each stage's mask and field are consumed by what follows (in place, to
+    keep memory low): ``stages`` keeps the first stage's mask and every
+    stage's skeleton data.
+    """
     result = DenoiseResult(mask=volume, field=None, timings=progress.timings)
     current = volume
     if params.stages in ("both", "foreground"):
@@ -147,38 +149,48 @@ def denoise_padded(volume, params, progress):
             "the whole shape is thinner than the noise scale; lower --threshold or raise --resolution"
         )
     if params.stages in ("both", "background"):
+        field = None
+        if "foreground" in result.stages:
+            result.stages["foreground"].field = None
         # The background lives inside the box; the box's outer layer stands
         # for the infinite outside so the background set is bounded (eq. 3.4).
-        frame = np.ones(current.shape, dtype=bool)
-        frame[1:-1, 1:-1, 1:-1] = False
+        background = ~current
+        _fill_outside(background, (slice(1, -1),) * 3, False)
         with progress.stage("background"):
-            stage = saliency_stage(~current & ~frame, params, progress)
+            stage = saliency_stage(background, params, progress)
+        del background
         result.stages["background"] = stage
         # Filling dents never reaches past the shape's bounding box; outside
         # it the background's reconstruction only misses the frame's own
         # edges (cut by the EDT filter), which are not part of the shape.
-        box = _bounding_box(current)
-        current = np.zeros_like(current)
-        current[box] = ~stage.mask[box]
-        margin = tuple(slice(b.start - 1, b.stop + 1) for b in box)
-        field = np.full(current.shape, -1.0, dtype=np.float32)
-        field[margin] = -stage.field[margin]
+        box = bounding_box(current)
+        current, field = stage.mask, stage.field
+        stage.mask = stage.field = None
+        np.logical_not(current, out=current)
+        _fill_outside(current, box, False)
+        np.negative(field, out=field)
+        _fill_outside(field, tuple(slice(b.start - 1, b.stop + 1) for b in box), -1.0)
     if params.edt_filter == "minify":
         with progress.step("specks"):
             specks = edt_filters.specks(current, params.minify_radius)
             current ^= specks
             field[specks] = np.where(current[specks], 1.0, -1.0)
     # The mesh and the voxels must agree: inside the surface iff in the mask.
-    np.copyto(field, np.where(current, np.maximum(field, 1e-3), np.minimum(field, -1e-3)))
+    np.maximum(field, 1e-3, out=field, where=current)
+    np.minimum(field, -1e-3, out=field, where=~current)
     result.mask = current
     result.field = field
     return result
 
 
-def _bounding_box(mask):
-    """Slices of the smallest box holding every set voxel."""
-    idx = np.argwhere(mask)
-    return tuple(slice(lo, hi + 1) for lo, hi in zip(idx.min(axis=0), idx.max(axis=0)))
+def _fill_outside(volume, box, value):
+    """Set every voxel of ``volume`` outside the slices ``box`` to ``value``, in place."""
+    for axis, s in enumerate(box):
+        start, stop, _ = s.indices(volume.shape[axis])
+        for part in (slice(None, start), slice(stop, None)):
+            index = [slice(None)] * 3
+            index[axis] = part
+            volume[tuple(index)] = value
 
 
 def denoise_volume(volume, params=None, progress=None, **overrides):
@@ -209,6 +221,7 @@ def denoise_volume(volume, params=None, progress=None, **overrides):
     pad = params.padding_voxels
     padded_shape = tuple(s + 2 * pad for s in volume.shape)
     check_grid_fits(padded_shape)
+    return_freed_memory()
     padded = np.pad(volume, pad)
     progress = progress or Progress(enabled=False)
     result = denoise_padded(padded, params, progress)
@@ -222,6 +235,7 @@ def _voxelize(mesh, resolution, padding, progress):
     """Occupancy of a mesh on its padded grid, memory checked before allocating."""
     grid = voxelize.grid_for_bounds(mesh.bounds, resolution, padding)
     check_grid_fits(grid.shape)
+    return_freed_memory()
     with progress.step("voxelize"):
         occupancy = voxelize.voxelize_on_grid(mesh, grid)
     if not occupancy.any():

@@ -9,7 +9,9 @@ lower-envelope algorithm applied to ``-f`` as in Coeurjolly & Montanvert's REDT.
 
 Only the winning centre (``owner``) is carried between passes; a site's value
 is recomputed from it exactly in float64 as ``r^2 - |x - c|^2``, so the power is
-exact whenever the squared radii are integers (as with EDT radii).
+exact whenever the squared radii are integers (as with EDT radii). The field
+``r - |x - c|`` of the owner has the power's sign, so the pipeline keeps only
+the owner (`union_of_balls`).
 """
 
 import numpy as np
@@ -111,7 +113,8 @@ def _envelope_pass(owner, power, sites, axis):
     """One pass of `_envelope_line` over every line along ``axis``.
 
     Lines are processed in tiles of ``B`` neighbours along the last free axis,
-    so that strided passes read and write whole cache lines.
+    so that strided passes read and write whole cache lines. An empty
+    ``power`` is not written (the owner alone carries the envelope).
     """
     B = 16
     nx, ny, nz = owner.shape
@@ -123,6 +126,7 @@ def _envelope_pass(owner, power, sites, axis):
     m2 = owner.shape[b2]
     own_flat = owner.reshape(-1)
     pow_flat = power.reshape(-1)
+    with_power = pow_flat.size > 0
     for i1 in prange(owner.shape[b1]):
         g = np.empty(n, np.float64)
         v = np.empty(n, np.int64)
@@ -141,7 +145,8 @@ def _envelope_pass(owner, power, sites, axis):
             for q in range(n):
                 for b in range(nb):
                     own_flat[base + q * sa + b * s2] = tile_own[b, q]
-                    pow_flat[base + q * sa + b * s2] = tile_pow[b, q]
+                    if with_power:
+                        pow_flat[base + q * sa + b * s2] = tile_pow[b, q]
 
 
 @njit(cache=True, parallel=True)
@@ -179,11 +184,15 @@ def reverse_edt(shape, centres, radii):
     Ties between balls go to either; ``power`` does not depend on the choice.
     """
     shape, centres, radii = _validate(shape, centres, radii)
-    r2 = squared_radii(radii)
-    owner = np.full(shape, -1, dtype=np.int32)
     power = np.full(shape, -np.inf, dtype=np.float32)
+    return power, _owner(shape, centres, squared_radii(radii), power)
+
+
+def _owner(shape, centres, r2, power):
+    """The three envelope passes; the owner as an index into ``centres`` (``power`` as in `_envelope_pass`)."""
+    owner = np.full(shape, -1, dtype=np.int32)
     if centres.size == 0:
-        return power, owner
+        return owner
     # Sorted centres keep each pass's look-ups of ball data local in memory.
     order = np.argsort(centres, kind="stable")
     sites = np.empty((centres.size, 4))
@@ -193,7 +202,29 @@ def reverse_edt(shape, centres, radii):
     for axis in range(3):
         _envelope_pass(owner, power, sites, axis)
     _relabel(owner, order.astype(np.int32))
-    return power, owner
+    return owner
+
+
+def union_of_balls(shape, centres, radii):
+    """The reconstruction (eq. 7.27) and its field, without the power volume.
+
+    Same as ``reconstruction(reverse_edt(...)[0])`` and `signed_distance` of
+    the owner, in 5 bytes per voxel: the field is written over the owner's
+    buffer, voxel by voxel.
+
+    Returns
+    -------
+    mask : (nx, ny, nz) bool array
+        Voxels strictly inside the union of the open balls.
+    field : (nx, ny, nz) float32 array
+        `signed_distance` of the union (``-inf`` everywhere when there is no ball).
+    """
+    shape, centres, radii = _validate(shape, centres, radii)
+    r2 = squared_radii(radii)
+    owner = _owner(shape, centres, r2, np.empty((0, 0, 0), np.float32))
+    field = owner.view(np.float32)
+    _signed_distance(owner, unravel(centres, shape), r2, field)
+    return field > 0, field
 
 
 def reconstruction(power):
@@ -218,7 +249,7 @@ def _signed_distance(owner, coords, r2, out):
     for i in prange(nx):
         for j in range(ny):
             for k in range(nz):
-                o = owner[i, j, k]
+                o = owner[i, j, k]  # read before out[i, j, k] is written: out may share owner's buffer
                 if o < 0:
                     out[i, j, k] = -np.inf
                     continue

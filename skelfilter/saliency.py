@@ -21,25 +21,40 @@ def skeleton_adjacency(skeleton, shape):
     """26-adjacency among skeleton voxels as a CSR pair ``(indptr, indices)``.
 
     ``skeleton`` holds flat voxel indices; neighbours are referred to by
-    their position in that array. The skeleton must not touch the volume's
-    faces.
+    their position in that array, each voxel's in the order of
+    ``OFFSETS_26``. The skeleton must not touch the volume's faces.
     """
     n = len(skeleton)
+    skeleton = np.asarray(skeleton, dtype=np.int64)
     lookup = np.full(int(np.prod(shape)), -1, dtype=np.int32)
     lookup[skeleton] = np.arange(n, dtype=np.int32)
-    rows, cols = [], []
-    for step in flat_offsets(shape, OFFSETS_26):
-        j = lookup[skeleton + step]
-        has = j >= 0
-        rows.append(np.flatnonzero(has).astype(np.int32))
-        cols.append(j[has])
-    del lookup
-    rows = np.concatenate(rows)
-    cols = np.concatenate(cols)
-    order = np.argsort(rows, kind="stable")
+    steps = flat_offsets(shape, OFFSETS_26)
+    counts = _neighbour_count(lookup, skeleton, steps)
     indptr = np.zeros(n + 1, dtype=np.int64)
-    np.cumsum(np.bincount(rows, minlength=n), out=indptr[1:])
-    return indptr, cols[order]
+    np.cumsum(counts, out=indptr[1:])
+    indices = np.empty(indptr[-1], dtype=np.int32)
+    _neighbour_fill(lookup, skeleton, steps, indptr, indices)
+    return indptr, indices
+
+
+@numba.njit(cache=True, parallel=True)
+def _neighbour_count(lookup, skeleton, steps):
+    counts = np.zeros(skeleton.size, dtype=np.int64)
+    for i in numba.prange(skeleton.size):
+        for step in steps:
+            counts[i] += lookup[skeleton[i] + step] >= 0
+    return counts
+
+
+@numba.njit(cache=True, parallel=True)
+def _neighbour_fill(lookup, skeleton, steps, indptr, indices):
+    for i in numba.prange(skeleton.size):
+        p = indptr[i]
+        for step in steps:
+            j = lookup[skeleton[i] + step]
+            if j >= 0:
+                indices[p] = j
+                p += 1
 
 
 def feature_velocity(skeleton, shape, a, b):

@@ -6,6 +6,7 @@ from scipy import ndimage
 from skimage import measure
 
 from . import reconstruct
+from .neighbourhood import bounding_box
 
 # Balls of radius D touch the centres of the nearest outside voxels; the
 # boundary between inside and outside voxel centres is half a voxel further in.
@@ -27,12 +28,10 @@ def field_to_mesh(field, grid):
     trimesh.Trimesh
         Watertight, outward-oriented mesh.
     """
-    inside = field > 0
-    if not inside.any():
+    crop = bounding_box(field > 0, margin=2)
+    if crop is None:
         raise ValueError("the field has no inside: nothing to mesh")
-    lo = np.maximum(np.argwhere(inside).min(axis=0) - 2, 0)
-    hi = np.minimum(np.argwhere(inside).max(axis=0) + 3, field.shape)
-    crop = tuple(slice(a, b) for a, b in zip(lo, hi))
+    lo = np.array([s.start for s in crop])
     verts, faces, _, _ = measure.marching_cubes(np.ascontiguousarray(field[crop], dtype=np.float32), level=0.0)
     mesh = trimesh.Trimesh(grid.to_world(verts + lo), faces, process=True)
     if mesh.volume < 0:
@@ -49,8 +48,7 @@ def mask_field(mask):
     distance = ndimage.distance_transform_edt(mask)
     centres = np.flatnonzero(mask.reshape(-1))
     radii = distance.reshape(-1)[centres] - SURFACE_OFFSET
-    _, owner = reconstruct.reverse_edt(mask.shape, centres, radii)
-    return reconstruct.signed_distance(mask.shape, centres, radii, owner)
+    return reconstruct.union_of_balls(mask.shape, centres, radii)[1]
 
 
 def mask_to_mesh(mask, grid):

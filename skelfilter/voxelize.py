@@ -150,13 +150,13 @@ def voxelize(mesh, resolution=256, padding=8):
     ParameterError
         If `resolution` or `padding` is out of range.
     """
-    triangles = _triangles(mesh)
-    flat = triangles.reshape(-1, 3)
-    bounds = np.stack([flat.min(axis=0), flat.max(axis=0)])
+    vertices, faces = _triangles(mesh)
+    used = vertices[np.unique(faces)]
+    bounds = np.stack([used.min(axis=0), used.max(axis=0)])
     if (bounds[1] == bounds[0]).all():
         raise InputError("all the mesh's vertices coincide")
     grid = grid_for_bounds(bounds, resolution, padding)
-    return _occupancy(triangles, grid), grid
+    return _occupancy(vertices, faces, grid), grid
 
 
 def voxelize_on_grid(mesh, grid):
@@ -196,37 +196,39 @@ def voxelize_on_grid(mesh, grid):
     of ray/triangle crossings; memory is one byte per voxel plus per-ray
     arrays.
     """
-    return _occupancy(_triangles(mesh), grid)
+    return _occupancy(*_triangles(mesh), grid)
 
 
 def _triangles(mesh):
+    """Vertices (float64) and faces (int64) of a mesh whose triangles can be voxelized."""
     if not isinstance(mesh, trimesh.Trimesh):
         raise InputError(f"expected a trimesh.Trimesh, got {type(mesh).__name__}")
-    faces = np.asarray(mesh.faces)
+    faces = np.asarray(mesh.faces, dtype=np.int64)
     if len(faces) == 0:
         raise InputError("the mesh has no faces")
-    triangles = np.asarray(mesh.vertices, dtype=np.float64)[faces]
-    if not np.isfinite(triangles).all():
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    if not np.isfinite(vertices).all(axis=1)[faces].all():
         raise InputError("the mesh has NaN or infinite vertex coordinates")
-    return triangles
+    return vertices, faces
 
 
-def _occupancy(triangles, grid):
-    local = grid.to_index(triangles) - _NUDGE
+def _occupancy(vertices, faces, grid):
+    # Per vertex, not per triangle corner: the same values in a third of the memory.
+    local = grid.to_index(vertices) - _NUDGE
     votes = np.zeros(grid.shape, dtype=np.uint8)
     rays, valid = [], []
     for axis in range(3):
         u, v = [a for a in range(3) if a != axis]
         nu, nv = grid.shape[u], grid.shape[v]
-        us, vs, ws = local[:, :, u], local[:, :, v], local[:, :, axis]
+        us, vs, ws = local[:, u], local[:, v], local[:, axis]
         # Counting sort of the crossings by ray: count them, then write each
         # one at its ray's next free slot.
         counts = np.zeros(nu * nv, dtype=np.int64)
-        _scan(us, vs, ws, nu, nv, counts, np.empty(0))
+        _scan(us, vs, ws, faces, nu, nv, counts, np.empty(0))
         start = np.zeros(nu * nv + 1, dtype=np.int64)
         np.cumsum(counts, out=start[1:])
         hits = np.empty(start[-1])
-        _scan(us, vs, ws, nu, nv, start[:-1].copy(), hits)
+        _scan(us, vs, ws, faces, nu, nv, start[:-1].copy(), hits)
         ok = np.ones(nu * nv, dtype=np.bool_)
         _vote(hits, start, np.moveaxis(votes, axis, -1), np.uint8(1 << axis), ok)
         rays.append((hits, start))
@@ -263,17 +265,21 @@ def _orient(ax, ay, bx, by, px, py):
 
 
 @njit(cache=True)
-def _scan(us, vs, ws, nu, nv, slot, hits):
+def _scan(us, vs, ws, faces, nu, nv, slot, hits):
     """Rasterize every triangle's projection onto the lattice of rays.
+
+    ``us``, ``vs``, ``ws`` are the vertices' coordinates across (u, v) and
+    along (w) the rays; ``faces`` index them.
 
     Ray ``(p, q)`` runs at ``(u, v) = (p, q)``. For each crossing,
     ``slot[ray]`` is incremented; when ``hits`` is not empty the crossing's
     coordinate along the ray is first stored at ``hits[slot[ray]]``.
     """
     fill = hits.size > 0
-    for f in range(us.shape[0]):
-        ax, bx, cx = us[f, 0], us[f, 1], us[f, 2]
-        ay, by, cy = vs[f, 0], vs[f, 1], vs[f, 2]
+    for f in range(faces.shape[0]):
+        i0, i1, i2 = faces[f, 0], faces[f, 1], faces[f, 2]
+        ax, bx, cx = us[i0], us[i1], us[i2]
+        ay, by, cy = vs[i0], vs[i1], vs[i2]
         # Which side of each edge (bc, ca, ab) the triangle lies on.
         sa = np.sign(_orient(bx, by, cx, cy, ax, ay))
         sb = np.sign(_orient(cx, cy, ax, ay, bx, by))
@@ -302,7 +308,7 @@ def _scan(us, vs, ws, nu, nv, slot, hits):
                     continue
                 ray = p * nv + q
                 if fill:
-                    hits[slot[ray]] = (wa * ws[f, 0] + wb * ws[f, 1] + wc * ws[f, 2]) / (wa + wb + wc)
+                    hits[slot[ray]] = (wa * ws[i0] + wb * ws[i1] + wc * ws[i2]) / (wa + wb + wc)
                 slot[ray] += 1
 
 

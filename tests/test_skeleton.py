@@ -28,7 +28,7 @@ def test_distance_and_features_match_brute_force(seed):
     d2 = ((inside[:, None, :] - outside[None, :, :]) ** 2).sum(-1)
     brute = np.sqrt(d2.min(axis=1))
     assert np.allclose(d[tuple(inside.T)], brute, atol=1e-5)
-    fx = f[(slice(None),) + tuple(inside.T)].T
+    fx = np.stack(np.unravel_index(f[tuple(inside.T)], v.shape), axis=1)
     # the feature point is a background voxel at exactly distance D ...
     assert not v[tuple(fx.T)].any()
     assert np.allclose(np.sqrt(((fx - inside) ** 2).sum(1)), brute, atol=1e-5)
@@ -38,6 +38,20 @@ def test_distance_and_features_match_brute_force(seed):
     flat = np.ravel_multi_index(tuple(inside.T), v.shape)
     assert np.array_equal(feature_points(f, flat), np.ravel_multi_index(tuple(fx.T), v.shape))
     assert (d[~v] == 0).all()
+    assert f.dtype == np.int32 and (f.reshape(-1)[~v.reshape(-1)] == np.flatnonzero(~v)).all()
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_features_are_scipys(seed):
+    # The same feature points as scipy's transform, ties included (they reach the results).
+    rng = np.random.default_rng(seed)
+    shape = tuple(rng.integers(2, 40, 3))
+    v = rng.random(shape) < rng.uniform(0.5, 0.99) if seed % 2 else blob(shape, seed)
+    v.reshape(-1)[0] = False
+    d, f = distance_and_features(v)
+    sd, si = ndimage.distance_transform_edt(v, return_indices=True)
+    assert np.array_equal(d, sd.astype(np.float32))
+    assert np.array_equal(f, np.ravel_multi_index(tuple(si), shape))
 
 
 def test_gradient_at_is_central_difference():
@@ -71,6 +85,7 @@ def test_ima_skeleton_brute_force_rule():
     d, f = distance_and_features(v)
     s = set(ima_skeleton(v, f).tolist())
     brute = set()
+    f = np.stack(np.unravel_index(f, v.shape))
     for x in np.argwhere(v):
         fx = f[(slice(None),) + tuple(x)]
         for e in [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]:
@@ -89,7 +104,8 @@ def test_extended_feature_points_brute_force():
     v = blob(seed=5)
     d, f = distance_and_features(v)
     s = ie_skeleton(d)
-    a, b = extended_feature_points(v, f, s)
+    a, b = (unravel(p, v.shape) for p in extended_feature_points(v, f, s))
+    f = np.stack(np.unravel_index(f, v.shape))
     for i, x in enumerate(unravel(s, v.shape)):
         own = f[(slice(None),) + tuple(x)]
         assert np.array_equal(a[i], own)

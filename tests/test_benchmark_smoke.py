@@ -1,0 +1,34 @@
+"""Smoke test of the benchmark at one small size (no timing assertions)."""
+
+import json
+import os
+import subprocess
+import sys
+
+ROOT = os.path.join(os.path.dirname(__file__), "..")
+
+
+def test_benchmark_writes_every_figure(tmp_path):
+    out = tmp_path / "bench.json"
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.path.abspath(ROOT), os.environ.get("PYTHONPATH", "")]))
+    done = subprocess.run([sys.executable, os.path.join(ROOT, "benchmarks", "bench_pipeline.py"), "--sizes", "48", "56",
+                           "--json", str(out)], env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert "ratio total / EDT" in done.stdout
+    data = json.loads(out.read_text())
+    assert data["machine"]["cores"] >= 1
+    small, large = data["results"]
+    for r in (small, large):
+        assert r["voxels"] == r["grid"][0] * r["grid"][1] * r["grid"][2]
+        assert 0 < r["edt_with_indices_s"] and 0 < r["total_s"] >= max(r["steps_s"].values())
+        assert r["edt_ratio"] == r["total_s"] / r["edt_with_indices_s"]
+        assert r["peak_rss_mib"] > 0 and r["bytes_per_voxel"] > 0
+        assert {"voxelize", "foreground/importance", "background/reconstruction", "marching cubes"} <= set(r["steps_s"])
+        assert set(r["steps_peak_mib"]) == set(r["steps_s"])
+        for stage in ("foreground", "background"):
+            s = r["stages"][stage]
+            assert s["skeleton_voxels"] > s["kept"] > 0
+            assert s["astar_searches"] > 0 and s["astar_expansions_mean"] >= 1
+    assert large["voxels"] > small["voxels"]
+    assert set(data["exponents"]) == set(small["steps_s"]) | {"total", "edt_with_indices"}
+    assert set(data["targets"]) == {"total / EDT at 48", "total / EDT at 56"}
