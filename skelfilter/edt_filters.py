@@ -111,5 +111,6 @@ def specks(mask, radius=3.0):
         small = sizes < limit
         small[0] = False
         small[np.argmax(sizes[1:]) + 1] = False
-        flip[crop] |= small[labels]
+        if small.any():  # usually none: skip the pass over the box
+            flip[crop] |= small[labels]
     return flip
