@@ -82,6 +82,25 @@ def minify(distance, centres, radius=3.0):
     return np.where(deep, d_inf + radius, d_inf).astype(np.float32)
 
 
+@njit(cache=True)
+def _piece_sizes(labels, n):
+    """Voxels per label 0..n (np.bincount would first copy the labels to int64)."""
+    sizes = np.zeros(n + 1, np.int64)
+    for label in labels.reshape(-1):
+        sizes[label] += 1
+    return sizes
+
+
+@njit(cache=True, parallel=True)
+def _mark_pieces(labels, small, out):
+    """``out |= small[labels]`` in place, without a temporary over the box."""
+    for i in prange(labels.shape[0]):
+        for j in range(labels.shape[1]):
+            for k in range(labels.shape[2]):
+                if small[labels[i, j, k]]:
+                    out[i, j, k] = True
+
+
 def specks(mask, radius=3.0):
     """Pieces and pockets of a reconstruction smaller than the minification ball.
 
@@ -107,10 +126,10 @@ def specks(mask, radius=3.0):
         labels, n = ndimage.label(target)
         if n <= 1:
             continue
-        sizes = np.bincount(labels.reshape(-1), minlength=n + 1)
+        sizes = _piece_sizes(labels, n)
         small = sizes < limit
         small[0] = False
         small[np.argmax(sizes[1:]) + 1] = False
-        if small.any():  # usually none: skip the pass over the box
-            flip[crop] |= small[labels]
+        if small.any():
+            _mark_pieces(labels, small, flip[crop])
     return flip
