@@ -5,10 +5,13 @@ normals, split at edges sharper than ``FEATURE_ANGLE`` so a sharp edge looks sha
 has one), so differences between cells are differences between meshes.
 """
 
+import ctypes.util
 import os
 
-# OSMesa renders on the CPU without an X server or a GPU (the system library libosmesa6).
-os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkOSOpenGLRenderWindow")
+# OSMesa renders on the CPU without an X server or a GPU (the system library libosmesa6); without it
+# VTK tries X, then EGL (Mesa's llvmpipe also renders on the CPU).
+if ctypes.util.find_library("OSMesa"):
+    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkOSOpenGLRenderWindow")
 
 from dataclasses import dataclass  # noqa: E402
 
