@@ -243,7 +243,7 @@ def _metric_rows(case, keys):
 def _html(results, sweep_png):
     cfg = results["config"]
     methods = [m["name"] for m in cfg["methods"]]
-    body = [f"<h1>skelfilter against MeshLab's filters</h1>",
+    body = ["<h1>skelfilter against MeshLab's filters</h1>",
             f"<p class='note'>Configuration <code>{_h(cfg['path'])}</code>; {len(results['cases'])} models; wall "
             f"time {results['wall_seconds']:.0f} s. Distances are in voxels of each model's noise grid "
             f"({cfg['resolution']} voxels along the longest side). Highlighted: the best filter in each column; "
