@@ -138,7 +138,7 @@ def test_report_opens_in_headless_chromium(smoke, tmp_path):
     browser = shutil.which("chromium") or shutil.which("chromium-browser")
     assert browser, "chromium is not installed: run `make setup` (it installs Debian's chromium package)"
     url = "file://" + os.path.abspath(os.path.join(out, "report.html"))
-    flags = [browser, "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
+    flags = [browser, "--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--hide-scrollbars",
              f"--user-data-dir={tmp_path / 'profile'}"]
     dom = subprocess.run(flags + ["--virtual-time-budget=10000", "--dump-dom", url], capture_output=True,
                          text=True, timeout=120).stdout
