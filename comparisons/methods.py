@@ -6,8 +6,6 @@ fault, a timeout or NaN vertices become an ``Outcome`` with a reason and the com
 """
 
 import os
-import subprocess
-import sys
 import tempfile
 import time
 from dataclasses import dataclass
@@ -15,7 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from skelfilter import meshlab, meshlab_filters, pipeline
+from skelfilter import meshlab, pipeline
+from skelfilter.child import run_child
 from skelfilter.errors import SkelfilterError
 
 
@@ -79,18 +78,7 @@ def meshlib_denoise(mesh, settings=None, timeout=900):
         np.savez(os.path.join(work, "mesh.npz"), vertices=np.asarray(mesh.vertices, dtype=np.float32),
                  faces=np.asarray(mesh.faces, dtype=np.int32),
                  **{f"s_{k}": np.asarray(v) for k, v in (settings or {}).items()})
-        cmd = [sys.executable, "-c",
-               "import sys; from comparisons.methods import _meshlib_child; _meshlib_child(sys.argv[1])", work]
-        package_parent = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-        env = dict(os.environ, PYTHONPATH=os.pathsep.join(
-            p for p in (package_parent, os.environ.get("PYTHONPATH")) if p))
-        try:
-            proc = subprocess.run(cmd, env=env, stdin=subprocess.DEVNULL, capture_output=True, timeout=timeout)
-        except subprocess.TimeoutExpired:
-            raise SkelfilterError(f"MeshLib did not finish within {timeout:g} s; the child process was killed") \
-                from None
-        if proc.returncode < 0:
-            raise SkelfilterError(f"MeshLib crashed: {meshlab_filters.signal_text(-proc.returncode)}")
+        proc = run_child("comparisons.methods", "_meshlib_child", work, timeout, "MeshLib")
         if proc.returncode != 0:
             tail = proc.stderr.decode("utf-8", "replace").strip().splitlines()[-1:]
             raise SkelfilterError(f"MeshLib failed (exit status {proc.returncode}): {' '.join(tail)}")

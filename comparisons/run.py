@@ -75,8 +75,7 @@ def prepare_case(case, config):
         clean = _clean_model(case.model)
         marching, noise, grid = pipeline.noisy_mesh(clean, case.noise)
         noisy = decimate(marching, config.max_faces)
-        chamfer = metrics.chamfer_distance(noisy, marching, grid, n_samples=50_000)
-        h95, hmax = metrics.hausdorff_distance(noisy, marching, grid, n_samples=50_000)
+        chamfer, h95, hmax = metrics.surface_distances(noisy, marching, grid, n_samples=50_000)
         facts = {"marching_cubes_faces": len(marching.faces), "faces": len(noisy.faces),
                  "decimation_chamfer": chamfer, "decimation_hausdorff_95": h95,
                  "decimation_hausdorff_max": hmax, "bump_voxels": int(noise.bumps.sum()),
@@ -88,12 +87,6 @@ def prepare_case(case, config):
         facts = {"faces": len(noisy.faces)}
     facts["pitch"] = grid.pitch
     return clean, noisy, grid, noise, facts
-
-
-def _measure(outcome, clean, grid, noise):
-    if outcome.mesh is None:
-        return {}
-    return metrics.mesh_metrics(outcome.mesh, clean, grid, noise)
 
 
 def _pictures(case_dir, name, mesh, clean, grid, cameras, size):
@@ -108,7 +101,7 @@ def _pictures(case_dir, name, mesh, clean, grid, cameras, size):
 
 
 def run_case(case, config, out_dir, say, pool):
-    """All methods on one case; returns the case's entry of results.json."""
+    """All methods on one case; returns the case's entry of results.json and its noise masks (or None)."""
     clean, noisy, grid, noise, facts = prepare_case(case, config)
     case_dir = os.path.join(out_dir, slug(case.name))
     os.makedirs(case_dir, exist_ok=True)
@@ -124,7 +117,7 @@ def run_case(case, config, out_dir, say, pool):
             run_method(method, noisy, clean, config)
         entry = {"name": method.name, "kind": method.kind, "seconds": outcome.seconds, "error": outcome.error}
         if outcome.error is None:
-            entry["metrics"] = _measure(outcome, clean, grid, noise)
+            entry["metrics"] = metrics.mesh_metrics(outcome.mesh, clean, grid, noise)
             entry["error"] = entry["metrics"].get("error")
         if entry["error"] is None:
             entry["mesh"] = os.path.join(case_dir, f"{slug(method.name)}.ply")
@@ -135,15 +128,13 @@ def run_case(case, config, out_dir, say, pool):
                                               else f"FAILED: {entry['error']}"))
         entries.append(entry)
     return {"name": case.name, "synthetic": case.synthetic,
-            "noise": vars(case.noise) if case.synthetic else None, "facts": facts, "methods": entries}
+            "noise": vars(case.noise) if case.synthetic else None, "facts": facts, "methods": entries}, noise
 
 
-def threshold_sweep(case, config, method, say):
+def threshold_sweep(name, noise, config, method, say):
     """skelfilter's errors against the threshold t on one case's noise grid (cf. the thesis' fig. 4.4):
     reconstruction error eq. 6.5 (as 1 - |R ∩ X| / |R ∪ X|), bumps removed, dents filled, clean
-    volume lost."""
-    clean = _clean_model(case.model)
-    _, noise, _ = pipeline.noisy_mesh(clean, case.noise)
+    volume lost. ``noise``: the case's masks (:class:`skelfilter.noise.NoiseResult`)."""
     base = config.denoise_params(method) if method is not None else DenoiseParams(resolution=config.resolution)
     rows = []
     for t in config.sweep_thresholds:
@@ -160,9 +151,9 @@ def threshold_sweep(case, config, method, say):
             "clean_lost": float((noise.clean & ~mask).sum() / noise.clean.sum()),
             "seconds": time.perf_counter() - start,
         })
-        say(f"sweep {case.name}: t = {t:g}: error {rows[-1]['reconstruction_error']:.4f}, "
+        say(f"sweep {name}: t = {t:g}: error {rows[-1]['reconstruction_error']:.4f}, "
             f"{100 * rows[-1]['bumps_removed']:.1f}% of bumps removed")
-    return {"case": case.name, "rows": rows}
+    return {"case": name, "rows": rows}
 
 
 def versions():
@@ -223,14 +214,17 @@ def run_compare(config, out_dir, say=None):
     os.makedirs(out_dir, exist_ok=True)
     start = time.perf_counter()
     results = {"config": as_dict(config), "versions": versions(), "cases": []}
+    sweep_noise = None
     with ThreadPoolExecutor(max_workers=config.jobs) as pool:
         for i, case in enumerate(config.cases):
             say(f"case {i + 1}/{len(config.cases)}: {case.name}")
-            results["cases"].append(run_case(case, config, out_dir, say, pool))
-    if config.sweep_case is not None:
-        case = next(c for c in config.cases if c.name == config.sweep_case)
+            entry, noise = run_case(case, config, out_dir, say, pool)
+            results["cases"].append(entry)
+            if case.name == config.sweep_case:
+                sweep_noise = noise
+    if sweep_noise is not None:
         method = next((m for m in config.methods if m.kind == "skelfilter"), None)
-        results["sweep"] = threshold_sweep(case, config, method, say)
+        results["sweep"] = threshold_sweep(config.sweep_case, sweep_noise, config, method, say)
     results["wall_seconds"] = time.perf_counter() - start
     _relative(results, out_dir)
     _write_tables(results, out_dir)

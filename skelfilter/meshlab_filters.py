@@ -26,7 +26,6 @@ import json
 import keyword
 import os
 import re
-import signal
 import subprocess
 import sys
 import tempfile
@@ -34,6 +33,7 @@ import tempfile
 import numpy as np
 
 from . import mlx
+from .child import run_child
 from .errors import InputError, SkelfilterError
 
 MLS_FILTERS = ("compute_mls_projection_apss", "compute_mls_projection_rimls")
@@ -256,13 +256,6 @@ def _child_main(workdir):
     _save_layers(os.path.join(workdir, "result.npz"), layers, current)
 
 
-def signal_text(code):
-    try:
-        return f"{signal.strsignal(code) or signal.Signals(code).name} (signal {code})"
-    except (ValueError, AttributeError):
-        return f"signal {code}"
-
-
 def run_filters(layers, current, steps, timeout=300):
     """Apply MeshLab filters to a stack of layers with pymeshlab, in a child process.
 
@@ -289,25 +282,12 @@ def run_filters(layers, current, steps, timeout=300):
         The child crashed (the signal is named), timed out, or a filter raised (the step is named).
     """
     names = ", ".join(name for name, _, _ in steps)
-    package_parent = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join(p for p in (package_parent, env.get("PYTHONPATH")) if p)
     with tempfile.TemporaryDirectory(prefix="skelfilter-meshlab-") as work:
         with open(os.path.join(work, "steps.json"), "w", encoding="utf-8") as f:
             json.dump([{"name": name, "params": attrs} for name, attrs, _ in steps], f)
         _save_layers(os.path.join(work, "layers.npz"), layers, current)
-        cmd = [sys.executable, "-c",
-               "import sys; from skelfilter.meshlab_filters import _child_main; _child_main(sys.argv[1])",
-               work]
-        try:
-            proc = subprocess.run(cmd, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                                  stderr=subprocess.PIPE, timeout=timeout)
-        except subprocess.TimeoutExpired:
-            raise SkelfilterError(f"{steps[0][2]}: MeshLab filters ({names}) did not finish within "
-                                  f"{timeout:g} s; the child process was killed") from None
-        if proc.returncode < 0:
-            raise SkelfilterError(f"{steps[0][2]}: pymeshlab crashed running {names}: "
-                                  f"{signal_text(-proc.returncode)}")
+        proc = run_child("skelfilter.meshlab_filters", "_child_main", work, timeout,
+                         f"{steps[0][2]}: MeshLab filters ({names})")
         error_file = os.path.join(work, "error.json")
         if os.path.exists(error_file):
             with open(error_file, encoding="utf-8") as f:

@@ -224,8 +224,7 @@ def chamfer_distance(result, clean, grid, n_samples=N_SAMPLES, seed=SEED):
     -------
     float
     """
-    d_rc, d_cr = _distances(result, clean, grid, n_samples, seed)
-    return 0.5 * (float(d_rc.mean()) + float(d_cr.mean()))
+    return surface_distances(result, clean, grid, n_samples, seed)[0]
 
 
 def hausdorff_distance(result, clean, grid, n_samples=N_SAMPLES, seed=SEED):
@@ -247,13 +246,22 @@ def hausdorff_distance(result, clean, grid, n_samples=N_SAMPLES, seed=SEED):
     h95 : float
     hmax : float
     """
-    d_rc, d_cr = _distances(result, clean, grid, n_samples, seed)
-    return _hausdorff(d_rc, d_cr)
+    return surface_distances(result, clean, grid, n_samples, seed)[1:]
 
 
-def _hausdorff(d_rc, d_cr):
+def surface_distances(result, clean, grid, n_samples=N_SAMPLES, seed=SEED, surfaces=None):
+    """Chamfer distance, Hausdorff 95 % and Hausdorff max (voxels) from one set of samples.
+
+    See `chamfer_distance` and `hausdorff_distance`; ``surfaces`` reuses prepared
+    ``(result, clean)`` closest-point scenes.
+
+    Returns
+    -------
+    chamfer, h95, hmax : float
+    """
+    d_rc, d_cr = _distances(result, clean, grid, n_samples, seed, surfaces)
     h95 = max(float(np.percentile(d_rc, 95)), float(np.percentile(d_cr, 95)))
-    return h95, max(float(d_rc.max()), float(d_cr.max()))
+    return 0.5 * (float(d_rc.mean()) + float(d_cr.mean())), h95, max(float(d_rc.max()), float(d_cr.max()))
 
 
 def normal_error(result, clean, clean_surface=None):
@@ -510,12 +518,11 @@ def mesh_metrics(result, clean, grid, noise=None, reach=6.1, sharp_angle=30.0, n
         return {"error": why, "faces": faces}
 
     rs, cs = _Surface(result), _Surface(clean)
-    d_rc, d_cr = _distances(result, clean, grid, n_samples, seed, surfaces=(rs, cs))
-    h95, hmax = _hausdorff(d_rc, d_cr)
+    chamfer, h95, hmax = surface_distances(result, clean, grid, n_samples, seed, surfaces=(rs, cs))
     v_result, v_clean = voxelize_on_grid(result, grid), voxelize_on_grid(clean, grid)
     sharp_mean, sharp_max, n_sharp = sharp_edge_error(result, clean, grid, sharp_angle, result_surface=rs)
     out = {
-        "chamfer": 0.5 * (float(d_rc.mean()) + float(d_cr.mean())),
+        "chamfer": chamfer,
         "hausdorff_95": h95,
         "hausdorff_max": hmax,
         "normal_error_deg": normal_error(result, clean, clean_surface=cs),

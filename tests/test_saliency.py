@@ -48,15 +48,20 @@ def brute_rho_plus_cone(rho, sigma, coords, velocity, adjacency_sets, k, min_cos
     return np.array([out[i] for i in range(len(rho))], dtype=np.float32)
 
 
-def test_rho_plus_matches_recursion_of_eq_5_6():
-    shape = (12, 13, 14)
-    s = random_voxels(shape, n=500, seed=1)
+def _random_skeleton(shape, seed):
+    """Skeleton voxels, their CSR and set adjacency, and random rho (many ties) and sigma_bar (some NaN)."""
+    s = random_voxels(shape, n=500, seed=seed)
     indptr, indices = skeleton_adjacency(s, shape)
-    rng = np.random.default_rng(2)
-    rho = rng.integers(0, 30, len(s)).astype(np.float32)  # many ties
+    rng = np.random.default_rng(seed + 1)
+    rho = rng.integers(0, 30, len(s)).astype(np.float32)
     sigma = rng.normal(1.0, 1.0, len(s)).astype(np.float32)
     sigma[rng.random(len(s)) < 0.1] = np.nan
     adj = [set(indices[indptr[i]:indptr[i + 1]].tolist()) for i in range(len(s))]
+    return s, indptr, indices, adj, rho, sigma, rng
+
+
+def test_rho_plus_matches_recursion_of_eq_5_6():
+    s, indptr, indices, adj, rho, sigma, _ = _random_skeleton((12, 13, 14), seed=1)
     got = rho_plus(rho, sigma, (indptr, indices), k=0.9)
     no_direction = np.zeros((len(s), 3))  # the literal eq. 5.6: every visited neighbour counts
     want = brute_rho_plus_cone(rho, sigma, no_direction, no_direction, adj, 0.9, -np.inf, 0.0)
@@ -66,16 +71,10 @@ def test_rho_plus_matches_recursion_of_eq_5_6():
 
 def test_rho_plus_along_v_matches_brute_force():
     shape = (12, 13, 14)
-    s = random_voxels(shape, n=500, seed=3)
-    indptr, indices = skeleton_adjacency(s, shape)
-    rng = np.random.default_rng(4)
-    rho = rng.integers(0, 30, len(s)).astype(np.float32)  # many ties
-    sigma = rng.normal(1.0, 1.0, len(s)).astype(np.float32)
-    sigma[rng.random(len(s)) < 0.1] = np.nan
+    s, indptr, indices, adj, rho, sigma, rng = _random_skeleton(shape, seed=3)
     # integer velocities keep the cosines away from rounding ties at the cone's edge
     velocity = rng.integers(-3, 4, (len(s), 3)).astype(np.float32)
     velocity[rng.random(len(s)) < 0.05] = 0.0  # no direction: any neighbour
-    adj = [set(indices[indptr[i]:indptr[i + 1]].tolist()) for i in range(len(s))]
     coords = unravel(s, shape)
     for min_cosine, min_rho in ((0.5, 0.0), (0.5, 7.0), (0.0, 3.0)):
         got = rho_plus(rho, sigma, (indptr, indices), k=0.9, velocity=velocity, skeleton=s, shape=shape,

@@ -1,0 +1,49 @@
+"""Running C++ libraries that can crash (pymeshlab, MeshLib) in a child Python process.
+
+A segmentation fault, an abort or a hang in the child becomes a :class:`SkelfilterError` naming what
+ran, instead of taking the caller down.
+"""
+
+import os
+import signal
+import subprocess
+import sys
+
+from .errors import SkelfilterError
+
+
+def signal_text(code):
+    """``Aborted (signal 6)`` for signal number 6, and so on."""
+    try:
+        return f"{signal.strsignal(code) or signal.Signals(code).name} (signal {code})"
+    except (ValueError, AttributeError):
+        return f"signal {code}"
+
+
+def run_child(module, function, workdir, timeout, what):
+    """Call ``module.function(workdir)`` in a fresh Python process and wait for it.
+
+    The child imports this checkout's packages first (its parent folder leads ``PYTHONPATH``).
+
+    Returns
+    -------
+    subprocess.CompletedProcess
+        With captured stdout and stderr; a non-zero exit status is the caller's to read.
+
+    Raises
+    ------
+    SkelfilterError
+        ``"{what} did not finish within … s"`` (the child is killed) or ``"{what} crashed: <signal>"``.
+    """
+    package_parent = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (package_parent, env.get("PYTHONPATH")) if p)
+    cmd = [sys.executable, "-c", f"import sys; from {module} import {function}; {function}(sys.argv[1])", workdir]
+    try:
+        proc = subprocess.run(cmd, env=env, stdin=subprocess.DEVNULL, capture_output=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        raise SkelfilterError(f"{what} did not finish within {timeout:g} s; the child process was killed") \
+            from None
+    if proc.returncode < 0:
+        raise SkelfilterError(f"{what} crashed: {signal_text(-proc.returncode)}")
+    return proc
