@@ -88,6 +88,16 @@ def test_rho_plus_along_v_matches_brute_force():
     assert np.array_equal(wide, rho_plus(rho, sigma, (indptr, indices), k=0.9))
 
 
+def _core_and_branch(shape, branch):
+    """A core line along x at y = 5 whose rho grows towards +x, and ``branch`` voxels at rho 8."""
+    coords = np.array([(x, 5, 2) for x in range(2, 25)] + branch)
+    s = ravel(coords, shape)
+    order = np.argsort(s)
+    s, coords = s[order], coords[order]
+    is_core = coords[:, 1] == 5
+    return s, is_core, np.where(is_core, 10.0 + coords[:, 0], 8.0).astype(np.float32)
+
+
 def test_rho_plus_along_v_stops_sideways_inheritance():
     # A core line along x whose importance grows to the root, and next to it
     # (one voxel over in y) a noise line of constant importance whose
@@ -95,14 +105,7 @@ def test_rho_plus_along_v_stops_sideways_inheritance():
     # from the core (+y). Eq. 5.6 as printed hands the core's rho+ sideways
     # to every noise voxel; along v the noise keeps its own importance.
     shape = (30, 12, 5)
-    core = [(x, 5, 2) for x in range(2, 25)]
-    noise = [(x, 6, 2) for x in range(5, 20)]
-    coords = np.array(core + noise)
-    s = ravel(coords, shape)
-    order = np.argsort(s)
-    s, coords = s[order], coords[order]
-    is_core = coords[:, 1] == 5
-    rho = np.where(is_core, 10.0 + coords[:, 0], 8.0).astype(np.float32)
+    s, is_core, rho = _core_and_branch(shape, [(x, 6, 2) for x in range(5, 20)])
     sigma = np.where(is_core, 2.0, np.nan).astype(np.float32)
     v = np.where(is_core[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]).astype(np.float32)
     adj = skeleton_adjacency(s, shape)
@@ -124,14 +127,7 @@ def test_rho_plus_separates_a_ligature_branch():
     # A core branch along x whose importance grows to the root, and a side
     # branch along y with constant importance (a ligature, sigma_bar = 0).
     shape = (30, 30, 5)
-    core = [(x, 5, 2) for x in range(2, 25)]
-    side = [(15, y, 2) for y in range(6, 20)]
-    coords = np.array(core + side)
-    s = ravel(coords, shape)
-    order = np.argsort(s)
-    s, coords = s[order], coords[order]
-    is_core = coords[:, 1] == 5
-    rho = np.where(is_core, 10.0 + coords[:, 0], 8.0).astype(np.float32)
+    s, is_core, rho = _core_and_branch(shape, [(15, y, 2) for y in range(6, 20)])
     sigma = np.where(is_core, 2.0, 0.0).astype(np.float32)
     rp = rho_plus(rho, sigma, skeleton_adjacency(s, shape), k=0.9)
     assert np.all(rp[is_core] == rho.max())
