@@ -9,7 +9,7 @@ safe way: layer 0 with per-vertex normals is the point set, layer 1 a copy that 
 (``controlmesh=0, proxymesh=1``). The normal computation is cleared from the recorded script, which
 therefore holds only the MLS filter with ControlMesh 0 and ProxyMesh 1.
 
-``skeleton_denoise.mlx`` applies "Skeleton Saliency Denoise" with the thesis' defaults, as
+``skeleton_denoise.mlx`` applies "Skeleton Saliency Denoise" with the default preset, as
 ``skelfilter export-script denoise`` writes it. ``mixed_example.mlx`` cleans the mesh up with MeshLab's
 filters, denoises it with skelfilter's and smooths it lightly with MeshLab's Taubin filter; its MeshLab
 filters are taken from a script pymeshlab saved. Both are written with skelfilter's writer, which

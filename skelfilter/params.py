@@ -6,7 +6,13 @@ help), its unit, its choices and, for lengths and thresholds, whether the value
 is absolute (voxels) or relative to the model's size. :mod:`skelfilter.filters`
 builds the MeshLab-style filter descriptions from these dataclasses, and the CLI
 flags, the Python and MeshSet defaults, the .mlx scripts and ``docs/filters.md``
-derive from those. Defaults are the thesis' (§8.1.2).
+derive from those.
+
+Two presets fix the method's main choices: ``thesis`` is the thesis' pipeline with its defaults
+(§8.1.2: both stages, t = 18 voxels); ``default`` is what measured best on this project's quality
+benchmark (``benchmarks/quality.py``): the foreground stage only and t = 30 voxels of a 160-voxel
+grid, scaled with the resolution. Fields left unset (``None``, or ``"preset"`` for the stages)
+take the preset's value.
 """
 
 import math
@@ -27,10 +33,26 @@ def _p(default, label, help, unit="", choices=None, measure=""):
     return field(default=default, metadata=meta)
 
 
+# What each preset sets when the field is left unset.
+PRESETS = {
+    "default": {"stages": "foreground", "threshold": None, "threshold_relative": 30.0 / 160.0,
+                "cap_factor": 1.0},
+    "thesis": {"stages": "both", "threshold": 18.0, "threshold_relative": None, "cap_factor": 2.0},
+}
+
+
 @dataclass(frozen=True)
 class DenoiseParams:
     """Parameters of the skeleton saliency denoiser (thesis §8.1.1-8.1.2)."""
 
+    preset: str = _p(
+        "default",
+        "Preset",
+        "the method's main choices for every field left unset: 'default' (measured best on the "
+        "quality benchmark: foreground stage only, t = 0.1875 of the longest side, i.e. 30 voxels at "
+        "resolution 160) or 'thesis' (the thesis' pipeline, §8.1.2: both stages, t = 18 voxels)",
+        choices=tuple(PRESETS),
+    )
     resolution: int = _p(
         256, "Resolution", "voxels along the longest side of the mesh's bounding box", "voxels"
     )
@@ -42,12 +64,13 @@ class DenoiseParams:
         "voxels",
         measure=ABSOLUTE,
     )
-    threshold: float = _p(
-        18.0,
+    threshold: float | None = _p(
+        None,
         "Importance threshold t",
         "importance threshold t on rho+ (eq. 5.6): skeleton parts whose streamline importance is "
         "below t are pruned; t must exceed the geodesic width of the noise to remove "
-        "(about 2h + pi r for a ridge of height h and radius r)",
+        "(about 2h + pi r for a ridge of height h and radius r); unset: the preset's "
+        "(default: 0.1875 of the longest side; thesis: 18 voxels)",
         "voxels",
         measure=ABSOLUTE,
     )
@@ -55,7 +78,8 @@ class DenoiseParams:
         None,
         "Relative importance threshold",
         "threshold t as a fraction of the longest bounding-box side (overrides the threshold in "
-        "voxels; t = threshold_relative * resolution voxels)",
+        "voxels; t = threshold_relative * resolution voxels); unset with the threshold unset: the "
+        "preset's",
         "fraction",
         measure=RELATIVE,
     )
@@ -82,10 +106,11 @@ class DenoiseParams:
         measure=ABSOLUTE,
     )
     stages: str = _p(
-        "both",
+        "preset",
         "Stages",
-        "which stages run: foreground removes bumps, background removes dents (§3.1.1)",
-        choices=("both", "foreground", "background"),
+        "which stages run: foreground removes bumps, background removes dents (§3.1.1); "
+        "'preset': the preset's (default: foreground; thesis: both)",
+        choices=("preset", "both", "foreground", "background"),
     )
     edt_filter: str = _p(
         "minify", "EDT filter", "EDT filter applied to the kept skeleton radii (§6.2.1)",
@@ -106,7 +131,8 @@ class DenoiseParams:
         None,
         "Geodesic search cap",
         "geodesics are searched up to this length and longer ones are set to it; any cap above t "
-        "leaves the kept/pruned decision of every voxel unchanged in practice (default max(2t, t+8))",
+        "leaves the kept/pruned decision of every voxel unchanged in practice (unset: t + 8 with "
+        "the default preset, max(2t, t+8) with the thesis')",
         "voxels",
         measure=ABSOLUTE,
     )
@@ -124,6 +150,9 @@ class DenoiseParams:
     )
 
     def __post_init__(self):
+        if self.preset not in PRESETS:
+            raise ParameterError(f"preset must be one of {', '.join(PRESETS)}, got {self.preset!r}")
+        self._apply_preset()
         if not isinstance(self.resolution, int) or self.resolution < 16:
             raise ParameterError(f"resolution must be an integer >= 16, got {self.resolution!r}")
         if self.padding is not None and self.padding < 2:
@@ -134,14 +163,26 @@ class DenoiseParams:
                 raise ParameterError(
                     f"{f.name} must be one of {', '.join(choices)}, got {getattr(self, f.name)!r}"
                 )
+        if self.threshold is not None and not (math.isfinite(self.threshold) and self.threshold > 0):
+            raise ParameterError(f"threshold must be a finite number > 0, got {self.threshold}")
         if self.threshold_relative is not None and not 0 < self.threshold_relative < 1:
             raise ParameterError(f"threshold_relative must be in (0, 1), got {self.threshold_relative}")
-        for name in ("threshold", "minify_radius", "derivative_min_rho"):
+        for name in ("minify_radius", "derivative_min_rho"):
             value = getattr(self, name)
             if not math.isfinite(value) or value < 0:
                 raise ParameterError(f"{name} must be a finite number >= 0, got {value}")
         if self.geodesic_cap is not None and self.geodesic_cap <= self.threshold_voxels:
             raise ParameterError("geodesic_cap must be larger than the threshold t")
+
+    def _apply_preset(self):
+        """Fill the fields left unset with the preset's values (the dataclass is frozen)."""
+        preset = PRESETS[self.preset]
+        if self.stages == "preset":
+            object.__setattr__(self, "stages", preset["stages"])
+        if self.threshold is None and self.threshold_relative is None:
+            object.__setattr__(self, "threshold_relative", preset["threshold_relative"])
+        if self.threshold is None and self.threshold_relative is None:
+            object.__setattr__(self, "threshold", preset["threshold"])
 
     @property
     def threshold_voxels(self):
@@ -156,7 +197,7 @@ class DenoiseParams:
         if self.geodesic_cap is not None:
             return float(self.geodesic_cap)
         t = self.threshold_voxels
-        return max(2.0 * t, t + 8.0)
+        return max(PRESETS[self.preset]["cap_factor"] * t, t + 8.0)
 
     @property
     def padding_voxels(self):
@@ -165,6 +206,9 @@ class DenoiseParams:
         return max(8, int(math.ceil(self.threshold_voxels / 2)) + 2)
 
     def with_(self, **changes):
+        """A copy with ``changes``; a threshold given in voxels replaces a relative one."""
+        if changes.get("threshold") is not None and "threshold_relative" not in changes:
+            changes["threshold_relative"] = None
         return replace(self, **changes)
 
 

@@ -49,7 +49,8 @@ def test_save_skeleton_writes_a_point_cloud_with_measures(cube_file, tmp_path):
     out, skel = tmp_path / "out.ply", tmp_path / "skel.ply"
     r = run_cli("noise", cube_file, tmp_path / "noisy.ply", "--resolution", "40", "--seed", "3")
     assert r.returncode == 0, r.stderr
-    r = run_cli("denoise", tmp_path / "noisy.ply", out, "--resolution", "40", "--save-skeleton", skel)
+    r = run_cli("denoise", tmp_path / "noisy.ply", out, "--resolution", "40", "--save-skeleton", skel,
+                "--preset", "thesis")
     assert r.returncode == 0, r.stderr
     header = open(skel, "rb").read(400).split(b"end_header")[0].decode()
     for name in ("quality", "d", "rho", "sigma_bar", "rho_plus"):

@@ -196,7 +196,7 @@ DENOISE = "Skeleton Saliency Denoise"
      r"bad.mlx:4: filter 'Skeleton Saliency Denoise', parameter 'resolution': wrong type 'RichFloat'; "
      r"resolution is a RichInt"),
     (one_filter(DENOISE, 'name="stages" value="0" enum_val0="all" type="RichEnum"'),
-     r"bad.mlx:4: filter 'Skeleton Saliency Denoise', parameter 'stages': stages must be one of both, "
+     r"bad.mlx:4: filter 'Skeleton Saliency Denoise', parameter 'stages': stages must be one of preset, both, "
      r"foreground, background, got 'all'"),
     (one_filter(DENOISE, 'name="resolution" value="8" type="RichInt"'),
      r"bad.mlx:3: filter 'Skeleton Saliency Denoise': resolution must be an integer >= 16, got 8"),
