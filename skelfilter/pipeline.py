@@ -209,7 +209,8 @@ def denoise_volume(volume, params=None, progress=None, **overrides):
     DenoiseResult
         ``mask`` (same shape as ``volume``), ``field`` (> 0 inside, 0 on the
         sub-voxel surface), per-stage skeleton data and step timings.
-        ``resolution`` is ignored here (the volume's grid is used as it is).
+        The volume's grid is used as it is: ``resolution`` is taken as the longest side of the
+        set voxels' bounding box, so a relative threshold is relative to the shape's size.
     """
     params = resolve_params(params, **overrides)
     volume = np.asarray(volume)
@@ -218,6 +219,8 @@ def denoise_volume(volume, params=None, progress=None, **overrides):
     volume = volume.astype(bool)
     if not volume.any():
         raise InputError("the volume is empty: no voxel is set")
+    extent = max(s.stop - s.start for s in bounding_box(volume))
+    params = params.with_(resolution=max(extent, 16))
     pad = params.padding_voxels
     padded_shape = tuple(s + 2 * pad for s in volume.shape)
     check_grid_fits(padded_shape)
