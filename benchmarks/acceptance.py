@@ -1,4 +1,6 @@
-"""Quality figures of the core pipeline on the test shapes (prints a table, optional JSON).
+"""Quality figures of the thesis' pipeline (preset ``thesis``) on the test shapes (prints a table, optional JSON).
+
+The project's own quality benchmark, which chose the default preset, is ``benchmarks/quality.py``.
 
     python benchmarks/acceptance.py [--resolution 160] [--json out.json]
 
@@ -20,6 +22,7 @@ from scipy import ndimage
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.join(HERE, "..")
+PRESET = "thesis"
 
 
 def load(name):
@@ -53,7 +56,7 @@ def denoising_rows(resolution, seed=1):
         clean, _ = voxelize(mesh, resolution, 16)
         for dents in (False, True):
             noise = add_noise(clean, p=0.014, r=2.1, h=3, l=6, seed=seed, dents=dents)
-            result = denoise_volume(noise.noisy).mask
+            result = denoise_volume(noise.noisy, preset=PRESET).mask
             row = {"shape": name, "dents": dents, "noise_voxels": int((noise.bumps | noise.dents).sum())}
             row.update(noise_scores(clean, noise, result, 3 + 2.1 + 1))
             rows.append(row)
@@ -68,19 +71,19 @@ def property_rows(resolution):
     for name, mesh in (("cube", cube_mesh()), ("fandisk", load("fandisk.obj"))):
         clean, _ = voxelize(mesh, resolution, 8)
         for edt_filter in ("none", "minify"):
-            out = denoise_volume(clean, edt_filter=edt_filter).mask
+            out = denoise_volume(clean, edt_filter=edt_filter, preset=PRESET).mask
             rows[f"clean {name} changed ({edt_filter})"] = (out ^ clean).sum() / clean.sum()
-        out = denoise_volume(clean).mask
+        out = denoise_volume(clean, preset=PRESET).mask
         lost = np.argwhere(clean & ~out)
         if len(lost):
             box = np.argwhere(clean)
             lo, hi = box.min(0), box.max(0)
             rows[f"minify: deepest cut at {name} edges (voxels)"] = float(
                 np.sort(np.minimum(lost - lo, hi - lost), axis=1)[:, 1].max()) if name == "cube" else float("nan")
-        twice = denoise_volume(out).mask
+        twice = denoise_volume(out, preset=PRESET).mask
         rows[f"second pass changes ({name})"] = (out ^ twice).sum() / out.sum()
     bunny = load("stanford-bunny.obj")
-    out = denoise_mesh(bunny, resolution=resolution)
+    out = denoise_mesh(bunny, resolution=resolution, preset=PRESET)
     rows["bunny out watertight"] = bool(out.is_watertight)
     rows["bunny out bodies"] = len(out.split(only_watertight=False))
     clean, grid = voxelize(bunny, resolution, 8)
@@ -92,7 +95,7 @@ def property_rows(resolution):
     top[:, int(ys.min() + 0.8 * (ys.max() - ys.min())):, :] = True  # the ears: top fifth of the height
     rows["bunny ear voxels kept"] = (back & clean & top).sum() / (clean & top).sum()
     rocker = load("rocker-arm.obj")
-    out = denoise_mesh(rocker, resolution=resolution)
+    out = denoise_mesh(rocker, resolution=resolution, preset=PRESET)
     rows["rocker-arm genus in/out"] = f"{(2 - rocker.euler_number) // 2}/{(2 - out.euler_number) // 2}"
     return rows
 

@@ -36,8 +36,9 @@ def _p(default, label, help, unit="", choices=None, measure=""):
 # What each preset sets when the field is left unset.
 PRESETS = {
     "default": {"stages": "foreground", "threshold": None, "threshold_relative": 30.0 / 160.0,
-                "cap_factor": 1.0},
-    "thesis": {"stages": "both", "threshold": 18.0, "threshold_relative": None, "cap_factor": 2.0},
+                "cap_factor": 1.0, "unchanged_surface": "input", "thin_radius_relative": 4.0 / 160.0},
+    "thesis": {"stages": "both", "threshold": 18.0, "threshold_relative": None, "cap_factor": 2.0,
+               "unchanged_surface": "reconstruction", "thin_radius_relative": 1.0},
 }
 
 
@@ -83,6 +84,17 @@ class DenoiseParams:
         "fraction",
         measure=RELATIVE,
     )
+    thin_radius_relative: float | None = _p(
+        None,
+        "Thin part radius",
+        "skeleton voxels in the middle of a thin part (feature points on opposite sides, object "
+        "angle >= 150 deg) whose ball radius, half the part's thickness, is at least this fraction "
+        "of the longest side are kept whatever their importance, so plates, walls and rims survive "
+        "a large t; 1 keeps none; unset: the preset's (default: 0.025, i.e. 4 voxels at resolution "
+        "160; thesis: 1)",
+        "fraction",
+        measure=RELATIVE,
+    )
     k: float = _p(
         0.9, "Derivative threshold k",
         "derivative threshold k: skeleton voxels with sigma_bar <= k are ligature (eq. 5.6)",
@@ -111,6 +123,15 @@ class DenoiseParams:
         "which stages run: foreground removes bumps, background removes dents (§3.1.1); "
         "'preset': the preset's (default: foreground; thesis: both)",
         choices=("preset", "both", "foreground", "background"),
+    )
+    unchanged_surface: str = _p(
+        "preset",
+        "Unchanged surface",
+        "the output surface where the denoising changed no voxel (2 voxels away from any change): "
+        "the input mesh's own surface (sub-voxel, its edges as they were) or the reconstruction's "
+        "(marching cubes of the union of balls); 'preset': the preset's (default: input; thesis: "
+        "reconstruction)",
+        choices=("preset", "input", "reconstruction"),
     )
     edt_filter: str = _p(
         "minify", "EDT filter", "EDT filter applied to the kept skeleton radii (§6.2.1)",
@@ -165,6 +186,8 @@ class DenoiseParams:
                 )
         if self.threshold is not None and not (math.isfinite(self.threshold) and self.threshold > 0):
             raise ParameterError(f"threshold must be a finite number > 0, got {self.threshold}")
+        if not 0 < self.thin_radius_relative <= 1:
+            raise ParameterError(f"thin_radius_relative must be in (0, 1], got {self.thin_radius_relative}")
         if self.threshold_relative is not None and not 0 < self.threshold_relative < 1:
             raise ParameterError(f"threshold_relative must be in (0, 1), got {self.threshold_relative}")
         for name in ("minify_radius", "derivative_min_rho"):
@@ -177,8 +200,11 @@ class DenoiseParams:
     def _apply_preset(self):
         """Fill the fields left unset with the preset's values (the dataclass is frozen)."""
         preset = PRESETS[self.preset]
-        if self.stages == "preset":
-            object.__setattr__(self, "stages", preset["stages"])
+        for name in ("stages", "unchanged_surface"):
+            if getattr(self, name) == "preset":
+                object.__setattr__(self, name, preset[name])
+        if self.thin_radius_relative is None:
+            object.__setattr__(self, "thin_radius_relative", preset["thin_radius_relative"])
         if self.threshold is None and self.threshold_relative is None:
             object.__setattr__(self, "threshold_relative", preset["threshold_relative"])
         if self.threshold is None and self.threshold_relative is None:
@@ -190,6 +216,13 @@ class DenoiseParams:
         if self.threshold_relative is not None:
             return self.threshold_relative * self.resolution
         return float(self.threshold)
+
+    @property
+    def thin_radius_voxels(self):
+        """Least half thickness of a kept thin part in voxels; None when no such rule applies."""
+        if self.thin_radius_relative >= 1:
+            return None
+        return self.thin_radius_relative * self.resolution
 
     @property
     def cap_voxels(self):

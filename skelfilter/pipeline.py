@@ -99,6 +99,9 @@ def saliency_stage(volume, params, progress):
             min_cosine=saliency.STREAM_COSINE, min_rho=params.derivative_min_rho,
         )
         kept = rho_plus >= params.threshold_voxels
+        if params.thin_radius_voxels is not None:
+            kept |= saliency.thin_part(voxels, a_flat, b_flat, distance.reshape(-1)[voxels], shape,
+                                       params.thin_radius_voxels)
         centres = voxels[kept]
         del adjacency, v, a_flat, b_flat
     with progress.step("EDT filter"):
@@ -267,7 +270,11 @@ def denoise_mesh_detailed(mesh, params=None, progress=None, **overrides):
     params = resolve_params(params, **overrides)
     progress = progress or Progress(enabled=False)
     occupancy, grid = _voxelize(mesh, params.resolution, params.padding_voxels, progress)
-    result = denoise_padded(occupancy, params, progress)
+    result = denoise_padded(occupancy.copy(), params, progress)
+    if params.unchanged_surface == "input":
+        with progress.step("input surface"):
+            surface.keep_input_surface(result.field, result.mask, occupancy, mesh, grid)
+    del occupancy
     with progress.step("marching cubes"):
         out = surface.field_to_mesh(result.field, grid)
     return out, result, grid

@@ -209,3 +209,44 @@ def _rho_plus_cone(rho, ligature, order, indptr, indices, coords, velocity, cone
         if best > -np.inf:
             out[i] = best
     return out
+
+
+def thin_part(voxels, a_flat, b_flat, radius, shape, min_radius, min_angle=150.0):
+    """Skeleton voxels in the middle of a thin part: feature points on opposite sides, ball not small.
+
+    A voxel of a plate, a wall or a rim has its two feature points straight
+    across (the angle between ``a - x`` and ``b - x``, the object angle, near
+    180°), and the radius of its ball is half the part's thickness. Ligature
+    voxels, which eq. 5.6 is built to prune, have a small object angle; the
+    axis of a noise protrusion has a large one but a ball no wider than the
+    protrusion. Voxels with object angle >= ``min_angle`` and ``radius >=
+    min_radius`` are therefore kept whatever their importance: near the rim of
+    a thin wall the geodesic between the two sides is short (about the
+    thickness plus twice the distance to the rim) and the velocity of
+    eq. 4.16 vanishes, so rho+ cannot inherit importance there.
+
+    Parameters
+    ----------
+    voxels, a_flat, b_flat : int ndarray
+        Flat indices of the skeleton voxels and of their two feature points.
+    radius : float ndarray
+        D at the skeleton voxels.
+    shape : tuple of int
+    min_radius : float
+        Least ball radius (half thickness), in voxels.
+    min_angle : float, optional
+        Least object angle, degrees.
+
+    Returns
+    -------
+    bool ndarray, aligned with ``voxels``
+    """
+    candidates = np.flatnonzero(radius >= min_radius)
+    x = unravel(voxels[candidates], shape).astype(np.float32)
+    to_a = unravel(a_flat[candidates], shape) - x
+    to_b = unravel(b_flat[candidates], shape) - x
+    cosine = (to_a * to_b).sum(axis=1) / np.maximum(
+        np.linalg.norm(to_a, axis=1) * np.linalg.norm(to_b, axis=1), 1e-12)
+    out = np.zeros(len(voxels), dtype=bool)
+    out[candidates[cosine <= np.cos(np.radians(min_angle))]] = True
+    return out
