@@ -9,7 +9,7 @@ from scipy import ndimage
 from numba import njit, prange
 
 from .errors import ParameterError
-from .neighbourhood import ball_offsets, bounding_box, unravel
+from .neighbourhood import OFFSETS_26, ball_offsets, bounding_box, flat_offsets, unravel
 
 
 @njit(cache=True, parallel=True)
@@ -133,3 +133,64 @@ def specks(mask, radius=3.0):
         if small.any():
             _mark_pieces(labels, small, flip[crop])
     return flip
+
+
+def needles(mask, max_neighbours=2):
+    """Voxel-thin spikes of a reconstruction: voxels with at most ``max_neighbours`` set 26-neighbours.
+
+    A kept skeleton line whose balls are smaller than a voxel (radius < 1 after
+    minification and the half-voxel offset) rebuilds a column one voxel wide:
+    a needle that marching cubes draws as a spike. Such voxels are peeled off
+    from the tip inwards, each removal re-examining its neighbours, until none
+    is left; a solid part never has a voxel this bare (the outermost corner of a
+    cube has 7 set neighbours). Returns the voxels to clear.
+    """
+    flip = np.zeros_like(mask)
+    crop = bounding_box(mask, margin=1)
+    if crop is None:
+        return flip
+    inner = np.ascontiguousarray(mask[crop])
+    found = np.zeros_like(inner)
+    _peel(inner.reshape(-1), found.reshape(-1), flat_offsets(inner.shape, OFFSETS_26), inner.shape,
+          max_neighbours)
+    flip[crop] = found
+    return flip
+
+
+@njit(cache=True)
+def _peel(mask, found, steps, shape, max_neighbours):
+    """Clear (in ``mask``) and mark (in ``found``) bare voxels, then the neighbours they leave bare."""
+    nx, ny, nz = shape
+    stack = np.empty(mask.size // 8 + 64, dtype=np.int64)
+    top = 0
+    for i in range(1, nx - 1):
+        for j in range(1, ny - 1):
+            for k in range(1, nz - 1):
+                v = (i * ny + j) * nz + k
+                if mask[v] and _count(mask, v, steps) <= max_neighbours:
+                    if top == stack.size:
+                        stack = np.concatenate((stack, np.empty(stack.size, dtype=np.int64)))
+                    stack[top] = v
+                    top += 1
+    while top > 0:
+        top -= 1
+        v = stack[top]
+        if not mask[v] or _count(mask, v, steps) > max_neighbours:
+            continue
+        mask[v] = False
+        found[v] = True
+        for step in steps:
+            u = v + step
+            if mask[u]:
+                if top == stack.size:
+                    stack = np.concatenate((stack, np.empty(stack.size, dtype=np.int64)))
+                stack[top] = u
+                top += 1
+
+
+@njit(cache=True)
+def _count(mask, v, steps):
+    n = 0
+    for step in steps:
+        n += mask[v + step]
+    return n

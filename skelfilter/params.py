@@ -87,11 +87,12 @@ class DenoiseParams:
     thin_radius_relative: float | None = _p(
         None,
         "Thin part radius",
+        "the half thickness that tells thin parts from noise, as a fraction of the longest side: "
         "skeleton voxels in the middle of a thin part (feature points on opposite sides, object "
-        "angle >= 150 deg) whose ball radius, half the part's thickness, is at least this fraction "
-        "of the longest side are kept whatever their importance, so plates, walls and rims survive "
-        "a large t; 1 keeps none; unset: the preset's (default: 0.025, i.e. 4 voxels at resolution "
-        "160; thesis: 1)",
+        "angle >= 150 deg) with a ball at least this large are kept whatever their importance, so "
+        "plates, walls and rims survive a large t; kept skeleton pieces cut off by the pruning whose "
+        "balls are all smaller are pruned, and voxel-thin spikes are peeled off; 1 turns these "
+        "rules off; unset: the preset's (default: 0.025, i.e. 4 voxels at resolution 160; thesis: 1)",
         "fraction",
         measure=RELATIVE,
     )

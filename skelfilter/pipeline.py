@@ -100,8 +100,10 @@ def saliency_stage(volume, params, progress):
         )
         kept = rho_plus >= params.threshold_voxels
         if params.thin_radius_voxels is not None:
-            kept |= saliency.thin_part(voxels, a_flat, b_flat, distance.reshape(-1)[voxels], shape,
-                                       params.thin_radius_voxels)
+            radius = distance.reshape(-1)[voxels]
+            kept |= saliency.thin_part(voxels, a_flat, b_flat, radius, shape, params.thin_radius_voxels)
+            kept &= ~saliency.detached_noise(kept, adjacency, radius, params.thin_radius_voxels)
+            del radius
         centres = voxels[kept]
         del adjacency, v, a_flat, b_flat
     with progress.step("EDT filter"):
@@ -178,6 +180,11 @@ def denoise_padded(volume, params, progress):
             specks = edt_filters.specks(current, params.minify_radius)
             current ^= specks
             field[specks] = np.where(current[specks], 1.0, -1.0)
+    if params.thin_radius_voxels is not None:
+        with progress.step("needles"):
+            spikes = edt_filters.needles(current)
+            current &= ~spikes
+            field[spikes] = -1.0
     # The mesh and the voxels must agree: inside the surface iff in the mask.
     np.maximum(field, 1e-3, out=field, where=current)
     np.minimum(field, -1e-3, out=field, where=~current)

@@ -7,6 +7,8 @@ is taken from skeleton neighbours only (§4.2.1).
 
 import numba
 import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
 
 from .distance import gradient_at
 from .neighbourhood import OFFSETS_26, flat_offsets, unravel
@@ -250,3 +252,41 @@ def thin_part(voxels, a_flat, b_flat, radius, shape, min_radius, min_angle=150.0
     out = np.zeros(len(voxels), dtype=bool)
     out[candidates[cosine <= np.cos(np.radians(min_angle))]] = True
     return out
+
+
+def detached_noise(kept, adjacency, radius, max_radius):
+    """Kept skeleton pieces cut off from the rest by the pruning, all of whose balls are small.
+
+    Pruning the ligature of a protrusion whose own axis inherited importance
+    leaves that axis as an island of kept voxels; its balls rebuild a needle
+    or a blob standing on the surface. A connected component (26-adjacency)
+    of the kept voxels whose largest radius is below ``max_radius`` is such
+    noise: any part of the shape thicker than ``2 max_radius`` has a ball at
+    least that large in its skeleton.
+
+    Parameters
+    ----------
+    kept : bool ndarray
+        Kept skeleton voxels.
+    adjacency : (indptr, indices)
+        26-adjacency of the skeleton voxels (`skeleton_adjacency`).
+    radius : float ndarray
+        D at the skeleton voxels.
+    max_radius : float
+        In voxels.
+
+    Returns
+    -------
+    bool ndarray, aligned with ``kept``
+        The kept voxels to prune.
+    """
+    indptr, indices = adjacency
+    n = len(kept)
+    rows = np.repeat(np.arange(n, dtype=np.int32), np.diff(indptr))
+    both = kept[rows] & kept[indices]
+    graph = csr_matrix((np.ones(int(both.sum()), dtype=np.int8), (rows[both], indices[both])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    label = np.where(kept, label, -1)
+    largest = np.zeros(label.max() + 2, dtype=np.float64)
+    np.maximum.at(largest, label + 1, radius)
+    return kept & (largest[label + 1] < max_radius)

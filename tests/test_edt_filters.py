@@ -141,3 +141,18 @@ def test_cube_reconstruction_loses_only_corner_voxels(cube):
     assert lost == {3.0: 0, 4.0: 8, 5.0: 56}
     four = reconstruction(reverse_edt(x.shape, centres, minify(distance, centres, 4.0))[0])
     assert np.array_equal(np.argwhere(x & ~four), np.argwhere(x & (faces[2] == 0) & (faces[1] == 0) & (faces[0] == 0)))
+
+
+def test_needles_peels_voxel_thin_spikes_and_nothing_of_a_solid():
+    from skelfilter.edt_filters import needles
+
+    x = np.zeros((30, 30, 30), bool)
+    x[5:25, 5:25, 5:15] = True
+    x[12, 12, 15:22] = True  # a spike one voxel wide, seven long
+    x[18, 8, 15] = x[19, 9, 16] = True  # a diagonal stub of two
+    spikes = needles(x)
+    expected = np.zeros_like(x)
+    expected[12, 12, 16:22] = True  # its foot has the slab below it as neighbours and stays
+    expected[19, 9, 16] = True
+    assert np.array_equal(spikes, expected)
+    assert not needles(x & ~spikes).any()  # a second pass finds nothing
