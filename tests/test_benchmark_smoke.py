@@ -23,9 +23,11 @@ def test_benchmark_writes_every_figure(tmp_path):
         assert 0 < r["edt_with_indices_s"] and 0 < r["total_s"] >= max(r["steps_s"].values())
         assert r["edt_ratio"] == r["total_s"] / r["edt_with_indices_s"]
         assert r["peak_rss_mib"] > 0 and r["bytes_per_voxel"] > 0
-        assert {"voxelize", "foreground/importance", "background/reconstruction", "marching cubes"} <= set(r["steps_s"])
+        assert {"voxelize", "foreground/importance", "foreground/reconstruction", "needles", "input surface",
+                "marching cubes"} <= set(r["steps_s"])
         assert set(r["steps_peak_mib"]) == set(r["steps_s"])
-        for stage in ("foreground", "background"):
+        assert set(r["stages"]) == {"foreground"}  # the default preset
+        for stage in r["stages"]:
             s = r["stages"][stage]
             assert s["skeleton_voxels"] > s["kept"] > 0
             assert s["astar_searches"] > 0 and s["astar_expansions_mean"] >= 1
