@@ -37,7 +37,10 @@ def test_default_config_is_the_thesis_protocol():
     scripts = {os.path.basename(m.script) for m in cfg.methods if m.kind == "meshlab"}
     assert scripts >= {"laplacian_surface_preserving.mlx", "two_step.mlx", "mls_apss.mlx", "rimls.mlx", "taubin.mlx"}
     assert {m.kind for m in cfg.methods} == {"noisy", "clean", "skelfilter", "meshlab", "meshlib"}
-    assert cfg.denoise_params(next(m for m in cfg.methods if m.kind == "skelfilter")).threshold == 18
+    # both presets side by side: the default and the thesis' pipeline with its defaults
+    presets = [cfg.denoise_params(m) for m in cfg.methods if m.kind == "skelfilter"]
+    assert [p.preset for p in presets] == ["default", "thesis"]
+    assert presets[1].threshold_voxels == 18 and presets[1].stages == "both"
 
 
 @pytest.mark.parametrize("text, fragment", [
