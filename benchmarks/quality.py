@@ -23,6 +23,7 @@ import hashlib
 import json
 import multiprocessing
 import os
+import subprocess
 import sys
 import time
 import warnings
@@ -558,6 +559,16 @@ def write_sheet(results, cases, setup, out_dir, say):
     os.replace(os.path.join(out_dir, report.grid_picture(grid, out_dir, "sheet")), os.path.join(out_dir, "sheet.png"))
 
 
+def uncommitted():
+    """Files of skelfilter/ that differ from the checkout's commit: the code measured is not the commit's."""
+    try:
+        done = subprocess.run(["git", "-C", ROOT, "status", "--porcelain", "--", "skelfilter"],
+                              capture_output=True, text=True, timeout=10)
+    except (OSError, subprocess.SubprocessError):
+        return []
+    return [line[3:] for line in done.stdout.splitlines()]
+
+
 def _variant_mesh_path(out_dir, case, label):
     return os.path.join(out_dir, "meshes", f"{slug(case.name)}-{slug(label)}.ply")
 
@@ -619,7 +630,7 @@ def main(argv=None):
                      "resolution": args.resolution, "max_faces": MAX_FACES, "noise_kinds": NOISE_KINDS,
                      "held_out": HELD_OUT, "check": args.check,
                      "variants": {label: asdict(p) for label, p in args.variants.items()},
-                     "rivals": list(args.rivals), "versions": versions()},
+                     "rivals": list(args.rivals), "versions": versions(), "uncommitted": uncommitted()},
         "shapes": _shape_facts(names, args.resolution),
         "cases": [{"name": c.name, "shape": c.shape, "kind": c.kind, "seed": c.seed, "split": c.split,
                    "facts": {k: v for k, v in facts[c].items() if k != "noisy"},

@@ -225,18 +225,18 @@ def evaluate(target, pairs):
     -------
     dict
         ``status`` (``met``, ``NOT met`` or ``n/a`` without values), ``value`` (the median, or the
-        worst value), ``worst`` (what it is), ``failing`` and ``count``.
+        worst value), ``worst`` (what it is), ``over`` (how many values are over the limit) and ``count``.
     """
     pairs = [(what, v) for what, v in pairs if _number(v)]
     if not pairs:
-        return {"status": "n/a", "value": None, "worst": None, "failing": 0, "count": 0}
+        return {"status": "n/a", "value": None, "worst": None, "over": 0, "count": 0}
     values = np.array([v for _, v in pairs], dtype=float)
     ok = values < target.limit if target.strict else values <= target.limit
     worst = int(np.argmax(values))
     value = float(np.median(values)) if target.median else float(values[worst])
     met = (value < target.limit if target.strict else value <= target.limit) if target.median else bool(ok.all())
     return {"status": "met" if met else "NOT met", "value": value, "worst": pairs[worst][0],
-            "failing": int((~ok).sum()), "count": len(pairs)}
+            "over": int((~ok).sum()), "count": len(pairs)}
 
 
 def acceptance(results, check):
@@ -302,8 +302,8 @@ def summary_table(results, split):
 
 def acceptance_table(results, split):
     rows = [[j["target"], j["status"] if j["status"] != "NOT met" else "**NOT met**", _fmt(j["format"], j["value"]),
-             j["worst"] or "–", f"{j['failing']}/{j['count']}"] for j in results["acceptance"][split]]
-    return _table(["target", "status", "median or worst value", "worst", "failing"], rows)
+             j["worst"] or "–", f"{j['over']}/{j['count']}"] for j in results["acceptance"][split]]
+    return _table(["target", "status", "median or worst value", "worst", "over the limit"], rows)
 
 
 def write_table(results, path):
@@ -315,7 +315,9 @@ def write_table(results, path):
            f"Noise grid {s['resolution']} voxels along the longest side; rivals on the noisy mesh decimated to "
            f"≤ {s['max_faces']} faces, skelfilter on the marching-cubes mesh. Variants: "
            + "; ".join(f"`{label}` (resolution {p['resolution']})" for label, p in s["variants"].items())
-           + f". Held-out shapes: {', '.join(s['held_out'])}. Git commit {s['versions'].get('git commit', '-')}.\n"]
+           + f". Held-out shapes: {', '.join(s['held_out'])}. Git commit {s['versions'].get('git commit', '-')}"
+           + (f" with uncommitted changes to {', '.join(s['uncommitted'])}" if s.get("uncommitted") else "")
+           + ".\n"]
     for split in SPLITS:
         if split not in results["summary"]:
             continue
