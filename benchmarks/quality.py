@@ -19,6 +19,7 @@ and noise kind, the acceptance targets of ``--check``; see ``quality_tables.py``
 """
 
 import argparse
+import contextlib
 import hashlib
 import json
 import multiprocessing
@@ -405,10 +406,8 @@ def _outcome(entry):
 def _value(text):
     """A --variant value as int, float, bool or str, the first that fits."""
     for kind in (int, float):
-        try:
+        with contextlib.suppress(ValueError):
             return kind(text)
-        except ValueError:
-            pass
     return {"true": True, "false": False}.get(text.lower(), text)
 
 

@@ -208,7 +208,6 @@ class DenoiseParams:
             object.__setattr__(self, "thin_radius_relative", preset["thin_radius_relative"])
         if self.threshold is None and self.threshold_relative is None:
             object.__setattr__(self, "threshold_relative", preset["threshold_relative"])
-        if self.threshold is None and self.threshold_relative is None:
             object.__setattr__(self, "threshold", preset["threshold"])
 
     @property
