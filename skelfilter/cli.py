@@ -26,7 +26,8 @@ def _add_filter_flags(parser, description):
         if p.default is not None:
             help_text += f" (default: {p.default})"
         if p.value_type is bool:
-            parser.add_argument(_flag(p.name), dest=p.name, action="store_true", default=None, help=help_text)
+            parser.add_argument(_flag(p.name), dest=p.name, action=argparse.BooleanOptionalAction,
+                                default=None, help=help_text)
             continue
         parser.add_argument(
             _flag(p.name),
@@ -56,6 +57,8 @@ def build_parser():
     den.add_argument("input", help="input mesh (PLY, OBJ, STL, OFF, GLB); never modified")
     den.add_argument("output", help="output mesh, written atomically")
     _add_filter_flags(den, SKELETON_SALIENCY_DENOISE)
+    den.add_argument("--close", action="store_true", help="write a new watertight mesh of the denoised "
+                     "solid (marching cubes), the same as --output-mesh closed")
     den.add_argument("--save-skeleton", metavar="FILE", help="write the skeleton voxels as a PLY point "
                      "cloud with per-point D, rho, sigma_bar, rho_plus (quality = rho_plus)")
     _add_display_flags(den)
@@ -109,10 +112,17 @@ def _add_display_flags(parser):
 
 
 def _denoise(args):
+    if args.close:
+        if args.output_mesh not in (None, "closed"):
+            raise InputError(f"--close contradicts --output-mesh {args.output_mesh}")
+        args.output_mesh = "closed"
     params = _params(SKELETON_SALIENCY_DENOISE, args)
     mesh = io.load_mesh(args.input)
     progress = Progress(enabled=args.progress)
     out, result, grid = pipeline.denoise_mesh_detailed(mesh, params, progress)
+    if args.progress is None and not progress.enabled:
+        for line in progress.notes:
+            print(f"skelfilter: {line}", file=sys.stderr)
     protect = [args.input]
     io.save_mesh(out, args.output, protect=protect)
     if args.save_skeleton:

@@ -79,21 +79,38 @@ def save_mesh(mesh, path, protect=()):
     """Write ``mesh`` to ``path`` (format from the extension), atomically.
 
     PLY files get double-precision vertices, as MeshLab writes them, so no digit of the coordinates
-    is lost (trimesh's PLY writer rounds them to float32); the other formats are trimesh's.
+    is lost (trimesh's PLY writer rounds them to float32), and the mesh's per-vertex or per-face
+    colours (``red``, ``green``, ``blue``, ``alpha``); the other formats are trimesh's (OBJ keeps
+    UVs and the texture).
     """
     ext = _extension(path)
     if ext == "ply":
-        faces = np.empty(len(mesh.faces), dtype=[("count", "u1"), ("vertex_indices", "<i4", (3,))])
+        kind = getattr(mesh.visual, "kind", None)
+        vertex_colours = {} if kind != "vertex" else _colour_fields(mesh.visual.vertex_colors)
+        face_colours = {} if kind != "face" else _colour_fields(mesh.visual.face_colors)
+        face_fields = [("count", "u1"), ("vertex_indices", "<i4", (3,))]
+        face_fields += [(name, "u1") for name in face_colours]
+        faces = np.empty(len(mesh.faces), dtype=face_fields)
         faces["count"] = 3
         faces["vertex_indices"] = mesh.faces
-        _save_ply(path, _vertex_records(mesh.vertices, {}, "<f8"), faces, protect)
+        for name, values in face_colours.items():
+            faces[name] = values
+        _save_ply(path, _vertex_records(mesh.vertices, vertex_colours, "<f8"), faces, protect)
         return
     atomic_write(path, lambda tmp: mesh.export(tmp, file_type=ext), protect)
 
 
+def _colour_fields(colours):
+    colours = np.asarray(colours, dtype=np.uint8)
+    return {name: colours[:, i] for i, name in enumerate(("red", "green", "blue", "alpha"))}
+
+
 def _vertex_records(points, properties, dtype):
+    """Structured vertex records: x, y, z of ``dtype``, then ``properties`` in their own dtypes."""
     names = ["x", "y", "z"] + list(properties)
-    data = np.empty(len(points), dtype=[(n, dtype) for n in names])
+    kinds = [dtype] * 3 + [np.asarray(v).dtype.str if np.asarray(v).dtype == np.uint8 else dtype
+                           for v in properties.values()]
+    data = np.empty(len(points), dtype=list(zip(names, kinds)))
     data["x"], data["y"], data["z"] = np.asarray(points).T
     for n in properties:
         data[n] = properties[n]
@@ -101,12 +118,14 @@ def _vertex_records(points, properties, dtype):
 
 
 def _save_ply(path, vertices, faces, protect):
-    """Binary little-endian PLY of a vertex record array and, if given, (count, indices) face records."""
-    kinds = {"<f4": "float", "<f8": "double"}
+    """Binary little-endian PLY of a vertex record array and, if given, face records (count,
+    indices, then any colour fields)."""
+    kinds = {"<f4": "float", "<f8": "double", "|u1": "uchar"}
     header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(vertices)}"]
     header += [f"property {kinds[vertices.dtype[n].str]} {n}" for n in vertices.dtype.names]
     if faces is not None:
         header += [f"element face {len(faces)}", "property list uchar int vertex_indices"]
+        header += [f"property uchar {n}" for n in faces.dtype.names[2:]]
     header.append("end_header")
 
     def write(tmp):

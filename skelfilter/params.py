@@ -36,9 +36,10 @@ def _p(default, label, help, unit="", choices=None, measure=""):
 # What each preset sets when the field is left unset.
 PRESETS = {
     "default": {"stages": "foreground", "threshold": None, "threshold_relative": 30.0 / 160.0,
-                "cap_factor": 1.0, "unchanged_surface": "input", "thin_radius_relative": 4.0 / 160.0},
+                "cap_factor": 1.0, "unchanged_surface": "input", "thin_radius_relative": 4.0 / 160.0,
+                "output_mesh": "auto"},
     "thesis": {"stages": "both", "threshold": 18.0, "threshold_relative": None, "cap_factor": 2.0,
-               "unchanged_surface": "reconstruction", "thin_radius_relative": 1.0},
+               "unchanged_surface": "reconstruction", "thin_radius_relative": 1.0, "output_mesh": "closed"},
 }
 
 
@@ -54,8 +55,31 @@ class DenoiseParams:
         "resolution 160) or 'thesis' (the thesis' pipeline, §8.1.2: both stages, t = 18 voxels)",
         choices=tuple(PRESETS),
     )
-    resolution: int = _p(
-        256, "Resolution", "voxels along the longest side of the mesh's bounding box", "voxels"
+    resolution: int | None = _p(
+        None,
+        "Resolution",
+        "voxels along the longest side of the mesh's bounding box; unset: twice the longest side "
+        "over the mesh's mean edge length, within 96-256 and lowered to fit in memory",
+        "voxels",
+    )
+    output_mesh: str = _p(
+        "preset",
+        "Output mesh",
+        "'input': the input mesh itself with its vertices moved (same faces in the same order, "
+        "colours and UVs kept, an open surface stays open): where the input is a solid, vertices of "
+        "removed bumps and filled dents go onto the denoised surface; then the fine pass; "
+        "'closed': a new watertight marching-cubes mesh of the denoised solid (the CLI's --close); "
+        "'auto': 'closed' for a solid covered in noise at the skeleton's scale, else 'input' with "
+        "the fine pass only (what the pruning would take off such a mesh is its own relief); "
+        "'preset': the preset's (default: auto; thesis: closed)",
+        choices=("preset", "auto", "input", "closed"),
+    )
+    fine_pass: bool = _p(
+        True,
+        "Fine pass",
+        "with the input mesh as output, smooth the fine noise left at the input's own resolution "
+        "while keeping edges: bilateral filtering of the face normals (Zheng et al. 2011), then "
+        "vertices fitted to them (Sun et al. 2007), as strong as the noise measured on the mesh",
     )
     padding: int | None = _p(
         None,
@@ -175,8 +199,11 @@ class DenoiseParams:
         if self.preset not in PRESETS:
             raise ParameterError(f"preset must be one of {', '.join(PRESETS)}, got {self.preset!r}")
         self._apply_preset()
-        if not isinstance(self.resolution, int) or self.resolution < 16:
+        if self.resolution is not None and (
+                isinstance(self.resolution, bool) or not isinstance(self.resolution, int) or self.resolution < 16):
             raise ParameterError(f"resolution must be an integer >= 16, got {self.resolution!r}")
+        if not isinstance(self.fine_pass, bool):
+            raise ParameterError(f"fine_pass must be true or false, got {self.fine_pass!r}")
         if self.padding is not None and self.padding < 2:
             raise ParameterError(f"padding must be >= 2 voxels, got {self.padding}")
         for f in fields(self):
@@ -195,13 +222,14 @@ class DenoiseParams:
             value = getattr(self, name)
             if not math.isfinite(value) or value < 0:
                 raise ParameterError(f"{name} must be a finite number >= 0, got {value}")
-        if self.geodesic_cap is not None and self.geodesic_cap <= self.threshold_voxels:
+        if (self.geodesic_cap is not None and self.resolution is not None
+                and self.geodesic_cap <= self.threshold_voxels):
             raise ParameterError("geodesic_cap must be larger than the threshold t")
 
     def _apply_preset(self):
         """Fill the fields left unset with the preset's values (the dataclass is frozen)."""
         preset = PRESETS[self.preset]
-        for name in ("stages", "unchanged_surface"):
+        for name in ("stages", "unchanged_surface", "output_mesh"):
             if getattr(self, name) == "preset":
                 object.__setattr__(self, name, preset[name])
         if self.thin_radius_relative is None:
@@ -213,6 +241,8 @@ class DenoiseParams:
     @property
     def threshold_voxels(self):
         """The threshold t in voxels."""
+        if self.resolution is None:
+            raise ParameterError("the resolution is not chosen yet (set it, or let the mesh choose it)")
         if self.threshold_relative is not None:
             return self.threshold_relative * self.resolution
         return float(self.threshold)

@@ -9,9 +9,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from . import edt_filters, importance, noise, reconstruct, saliency, skeleton, surface, voxelize
+from . import (edt_filters, importance, noise, normal_filtering, output_choice, reconstruct, saliency, skeleton,
+               surface, vertex_projection, voxelize)
 from .distance import distance_and_features
-from .errors import InputError
+from .errors import InputError, ResourceError
 from .memory import check_grid_fits, return_freed_memory
 from .neighbourhood import bounding_box, unravel
 from .params import DenoiseParams, NoiseParams
@@ -273,18 +274,90 @@ def denoise_mesh(mesh, params=None, progress=None, **overrides):
 
 
 def denoise_mesh_detailed(mesh, params=None, progress=None, **overrides):
-    """Like :func:`denoise_mesh`, also returning the DenoiseResult and the Grid."""
+    """Like :func:`denoise_mesh`, also returning the DenoiseResult and the Grid.
+
+    The DenoiseResult has no stages when the voxel stage did not run (an open input kept as it is).
+    """
     params = resolve_params(params, **overrides)
     progress = progress or Progress(enabled=False)
+    if params.resolution is None:
+        params = params.with_(resolution=_fitting_resolution(mesh, params))
+        progress.note(f"resolution {params.resolution} voxels (from the mesh's mean edge length)")
     occupancy, grid = _voxelize(mesh, params.resolution, params.padding_voxels, progress)
+    output = params.output_mesh
+    solid = True
+    if output != "closed":
+        with progress.step("solid check"):
+            solid = output_choice.solid_share(occupancy, mesh, grid) >= output_choice.SOLID_SHARE
+    if not solid:
+        progress.note("the input is an open surface: its own mesh comes back, smoothed by the fine pass "
+                      "(the voxel stage needs a solid; --close makes one)")
+        result = DenoiseResult(mask=occupancy, field=None, timings=progress.timings)
+        return _kept_mesh(mesh, None, params, grid, progress), result, grid
     result = denoise_padded(occupancy.copy(), params, progress)
-    if params.unchanged_surface == "input":
-        with progress.step("input surface"):
-            surface.keep_input_surface(result.field, result.mask, occupancy, mesh, grid)
-    del occupancy
-    with progress.step("marching cubes"):
-        out = surface.field_to_mesh(result.field, grid)
+    voxel_moves = output == "input"
+    if output == "auto":
+        share = output_choice.skeleton_noise_share(occupancy, result.mask)
+        output = "closed" if share >= output_choice.NOISE_SHARE else "input"
+        progress.note(f"output: {'a new closed mesh' if output == 'closed' else 'the input mesh, smoothed'} "
+                      f"(skeleton-scale noise: {share:.2f} voxels per surface voxel, "
+                      f"{output_choice.NOISE_SHARE} or more makes a new closed mesh)")
+    if output == "closed":
+        if params.unchanged_surface == "input":
+            with progress.step("input surface"):
+                surface.keep_input_surface(result.field, result.mask, occupancy, mesh, grid)
+        del occupancy
+        with progress.step("marching cubes"):
+            out = surface.field_to_mesh(result.field, grid)
+        return out, result, grid
+    out = _kept_mesh(mesh, (result, occupancy) if voxel_moves else None, params, grid, progress)
     return out, result, grid
+
+
+def _kept_mesh(mesh, voxels, params, grid, progress):
+    """The input mesh with its vertices moved: onto the denoised surface where ``voxels`` (the
+    DenoiseResult and the input occupancy, or None) says the shape changed, then the fine pass."""
+    # Vertices split along UV seams or by the file format move as one.
+    welded, inverse = np.unique(np.asarray(mesh.vertices, dtype=np.float64), axis=0, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    faces = inverse[np.asarray(mesh.faces, dtype=np.int64)]
+    vertices, moved = welded, np.zeros(len(welded), dtype=bool)
+    if voxels is not None:
+        result, occupancy = voxels
+        with progress.step("vertices moved"):
+            vertices, moved = vertex_projection.move_input_vertices(
+                welded, faces, result.mask, occupancy, result.field, surface.mask_field(occupancy), grid,
+                max_move=params.threshold_voxels / 2)
+    if params.fine_pass:
+        with progress.step("fine pass"):
+            smoothed, reference = normal_filtering.fine_pass(vertices, faces)
+            # Faces keep the filtered normals' orientation, or the denoised surface's where
+            # vertices moved onto it.
+            near_moved = moved[faces].any(axis=1)
+            if near_moved.any():
+                reference[near_moved] = vertex_projection.outward_normals(
+                    grid.to_index(vertices[faces[near_moved]].mean(axis=1)), voxels[0].field)
+            vertices, folded = vertex_projection.unfold(smoothed, faces, reference)
+        if folded:
+            progress.note(f"{folded} faces stay folded (turned against the surface or without area)")
+    out = mesh.copy()
+    out.vertices = vertices[inverse]
+    return out
+
+
+def _fitting_resolution(mesh, params):
+    """`voxelize.auto_resolution`, lowered until the grid fits in memory (at least 16)."""
+    resolution = voxelize.auto_resolution(mesh)
+    while True:
+        trial = params.with_(resolution=resolution)
+        shape = voxelize.grid_for_bounds(mesh.bounds, resolution, trial.padding_voxels).shape
+        try:
+            check_grid_fits(shape)
+            return resolution
+        except ResourceError:
+            if resolution <= 16:
+                raise
+            resolution = max(16, int(resolution * 0.9))
 
 
 def noisy_mesh(mesh, params=None, progress=None, **overrides):

@@ -17,7 +17,15 @@ class Progress:
             enabled = hasattr(self.stream, "isatty") and self.stream.isatty()
         self.enabled = enabled
         self.timings = {}
+        self.notes = []
         self._prefix = ""
+
+    def note(self, text):
+        """Record a line worth telling the user (a choice made for them); printed when enabled."""
+        self.notes.append(text)
+        if self.enabled:
+            self.stream.write(f"  {text}\n")
+            self.stream.flush()
 
     @contextmanager
     def stage(self, name):

@@ -123,6 +123,25 @@ def grid_for_bounds(bounds, resolution, padding):
     return Grid(origin, pitch, tuple(cells.tolist()))
 
 
+# The automatic resolution: voxels per mean edge length along the longest side, and its range.
+VOXELS_PER_EDGE = 2.0
+AUTO_RESOLUTION_RANGE = (96, 256)
+
+
+def auto_resolution(mesh):
+    """A grid resolution for ``mesh``: `VOXELS_PER_EDGE` voxels per mean edge length along the
+    longest side of its bounding box, within `AUTO_RESOLUTION_RANGE`.
+
+    A voxel then resolves what the mesh resolves, and finer grids would only cost time.
+    """
+    extent = float(np.ptp(np.asarray(mesh.bounds, dtype=np.float64), axis=0).max())
+    edge = float(np.asarray(mesh.edges_unique_length).mean()) if len(mesh.faces) else 0.0
+    lo, hi = AUTO_RESOLUTION_RANGE
+    if not edge > 0:
+        return hi
+    return int(np.clip(round(VOXELS_PER_EDGE * extent / edge), lo, hi))
+
+
 def voxelize(mesh, resolution=256, padding=8):
     """Occupancy volume of a mesh on a grid fitted to its bounding box.
 
