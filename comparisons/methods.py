@@ -74,18 +74,50 @@ def meshlib_denoise(mesh, settings=None, timeout=900):
     SkelfilterError
         MeshLib missing, crashed, timed out, or returned non-finite vertices.
     """
-    with tempfile.TemporaryDirectory(prefix="skelfilter-meshlib-") as work:
-        np.savez(os.path.join(work, "mesh.npz"), vertices=np.asarray(mesh.vertices, dtype=np.float32),
+    return _in_child("_meshlib_child", mesh, settings, timeout, "MeshLib")
+
+
+def _pygel3d_child(workdir):
+    """Child process: mesh.npz + settings.npz -> pygel3d's anisotropic_smooth -> result.npz."""
+    from pygel3d import hmesh
+
+    with np.load(os.path.join(workdir, "mesh.npz")) as z:
+        vertices, faces = z["vertices"].astype(np.float64), z["faces"]
+        settings = {k[2:]: z[k].item() for k in z.files if k.startswith("s_")}
+    m = hmesh.Manifold.from_triangles(vertices, faces)
+    hmesh.anisotropic_smooth(m, settings.get("sharpness", 0.5), settings.get("iterations", 10))
+    path = os.path.join(workdir, "result.obj")
+    hmesh.obj_save(path, m)
+    result = trimesh.load(path, process=False, force="mesh")
+    np.savez(os.path.join(workdir, "result.npz"), vertices=result.vertices, faces=result.faces)
+
+
+def pygel3d_smooth(mesh, settings=None, timeout=900):
+    """pygel3d's ``hmesh.anisotropic_smooth`` (sharpness 0.5, 10 iterations unless given) in a child
+    process; the mesh comes back as pygel3d writes it (its own vertex and face order).
+
+    Raises
+    ------
+    SkelfilterError
+        pygel3d missing, crashed, timed out, or returned non-finite vertices.
+    """
+    return _in_child("_pygel3d_child", mesh, settings, timeout, "pygel3d")
+
+
+def _in_child(function, mesh, settings, timeout, what):
+    """Run ``function`` of this module on ``mesh`` in a child process (files in a temporary folder)."""
+    with tempfile.TemporaryDirectory(prefix="skelfilter-child-") as work:
+        np.savez(os.path.join(work, "mesh.npz"), vertices=np.asarray(mesh.vertices, dtype=np.float64),
                  faces=np.asarray(mesh.faces, dtype=np.int32),
                  **{f"s_{k}": np.asarray(v) for k, v in (settings or {}).items()})
-        proc = run_child("comparisons.methods", "_meshlib_child", work, timeout, "MeshLib")
+        proc = run_child("comparisons.methods", function, work, timeout, what)
         if proc.returncode != 0:
             tail = proc.stderr.decode("utf-8", "replace").strip().splitlines()[-1:]
-            raise SkelfilterError(f"MeshLib failed (exit status {proc.returncode}): {' '.join(tail)}")
+            raise SkelfilterError(f"{what} failed (exit status {proc.returncode}): {' '.join(tail)}")
         with np.load(os.path.join(work, "result.npz")) as z:
             vertices, faces = z["vertices"].astype(np.float64), z["faces"]
     bad = ~np.isfinite(vertices).all(axis=1)
     if bad.any():
-        raise SkelfilterError(f"MeshLib returned {int(bad.sum())} of {len(vertices)} vertices with NaN "
+        raise SkelfilterError(f"{what} returned {int(bad.sum())} of {len(vertices)} vertices with NaN "
                               "or infinite coordinates")
     return trimesh.Trimesh(vertices=vertices, faces=faces, process=False)

@@ -120,13 +120,13 @@ def _denoise(args):
     mesh = io.load_mesh(args.input)
     progress = Progress(enabled=args.progress)
     out, result, grid = pipeline.denoise_mesh_detailed(mesh, params, progress)
-    if args.progress is None and not progress.enabled:
-        for line in progress.notes:
-            print(f"skelfilter: {line}", file=sys.stderr)
     protect = [args.input]
     io.save_mesh(out, args.output, protect=protect)
     if args.save_skeleton:
         _save_skeleton(args.save_skeleton, result, grid, protect + [args.output])
+    if args.progress is None and not progress.enabled:
+        for line in progress.notes:
+            print(f"skelfilter: {line}", file=sys.stderr)
     if progress.enabled:
         total = sum(progress.timings.values())
         print(f"wrote {args.output}: {len(out.vertices)} vertices, {len(out.faces)} faces "

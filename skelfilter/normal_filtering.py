@@ -153,25 +153,32 @@ def vertex_adjacency(faces, n_vertices):
 
 
 def noise_level(normals, pairs):
-    """The median difference (length of the difference of unit vectors) of neighbouring normals.
+    """The median over faces of the smallest difference between the face's normal and a neighbour's.
 
-    About 0.5 on the literature's meshes with Gaussian noise of 0.2 mean edge lengths, 0.67 at 0.3
-    and 1.07 at 0.7; a clean, finely tessellated surface gives far less.
+    The difference of unit vectors, about twice the sine of half the angle. Noise turns every face
+    away from all its neighbours; a clean surface, however coarse, has for each face a neighbour
+    nearly parallel to it (a box of 12 triangles gives 0, where the median over all neighbouring
+    pairs would measure its edges). About 0.11 on meshes with Gaussian noise of 0.2 mean edge
+    lengths, 0.15 at 0.3 and 0.23 at 0.7.
     """
     i, j = pairs
     if i.size == 0:
         return 0.0
-    return float(np.median(np.linalg.norm(normals[i] - normals[j], axis=1)))
+    smallest = np.full(len(normals), np.inf)
+    np.minimum.at(smallest, i, np.linalg.norm(normals[i] - normals[j], axis=1))
+    return float(np.median(smallest[np.isfinite(smallest)]))
 
 
 # The fine pass's settings at the two ends of the noise level (`noise_level`), linear in between:
 # (noise level, sigma_r / noise level, normal iterations, vertex iterations). Chosen on Gaussian
 # noise of 0.2-0.7 mean edge lengths along the normals of fandisk, the rocker arm and the bunny
-# (benchmarks/fine_noise.py); light noise on organic shapes wants few iterations and a wide range
+# (benchmarks/literature.py); light noise on organic shapes wants few iterations and a wide range
 # kernel, heavy noise on flat faces many iterations and a narrow one.
-SCHEDULE = ((0.55, 1.0, 4, 4), (0.9, 0.55, 16, 10))
+SCHEDULE = ((0.122, 4.5, 4, 4), (0.2, 2.5, 16, 10))
 # Uniform-Laplacian steps of the low-pass that takes the drift out of the vertex displacement.
 DRIFT_STEPS = 10
+# The narrowest range kernel: a clean mesh (noise level 0) only mixes parallel normals.
+MIN_SIGMA_R = 1e-3
 
 
 def schedule(level):
@@ -179,7 +186,7 @@ def schedule(level):
     (lo, k_lo, n_lo, v_lo), (hi, k_hi, n_hi, v_hi) = SCHEDULE
     t = min(max((level - lo) / (hi - lo), 0.0), 1.0)
     k = k_lo + t * (k_hi - k_lo)
-    return k * level, int(round(n_lo + t * (n_hi - n_lo))), int(round(v_lo + t * (v_hi - v_lo)))
+    return max(k * level, MIN_SIGMA_R), int(round(n_lo + t * (n_hi - n_lo))), int(round(v_lo + t * (v_hi - v_lo)))
 
 
 def fine_pass(vertices, faces, movable=None):

@@ -222,6 +222,8 @@ class DenoiseParams:
             value = getattr(self, name)
             if not math.isfinite(value) or value < 0:
                 raise ParameterError(f"{name} must be a finite number >= 0, got {value}")
+        if self.geodesic_cap is not None and not (math.isfinite(self.geodesic_cap) and self.geodesic_cap > 0):
+            raise ParameterError(f"geodesic_cap must be a finite number > 0, got {self.geodesic_cap}")
         if (self.geodesic_cap is not None and self.resolution is not None
                 and self.geodesic_cap <= self.threshold_voxels):
             raise ParameterError("geodesic_cap must be larger than the threshold t")
@@ -241,9 +243,9 @@ class DenoiseParams:
     @property
     def threshold_voxels(self):
         """The threshold t in voxels."""
-        if self.resolution is None:
-            raise ParameterError("the resolution is not chosen yet (set it, or let the mesh choose it)")
         if self.threshold_relative is not None:
+            if self.resolution is None:
+                raise ParameterError("a relative threshold needs the resolution (set it, or let the mesh choose it)")
             return self.threshold_relative * self.resolution
         return float(self.threshold)
 

@@ -14,9 +14,10 @@ from skelfilter.voxelize import voxelize
 
 
 def test_presets_fill_only_the_unset_fields():
-    thesis = DenoiseParams(preset="thesis")
+    thesis = DenoiseParams(preset="thesis", resolution=256)
     assert (thesis.stages, thesis.threshold_voxels, thesis.cap_voxels) == ("both", 18.0, 36.0)
-    default = DenoiseParams()
+    default = DenoiseParams(resolution=256)
+    assert DenoiseParams().resolution is None  # chosen from the mesh
     assert default.stages == "foreground"
     # t is a fraction of the longest side: 30 voxels at 160, the same size in the world at 256
     assert DenoiseParams(resolution=160).threshold_voxels == 30.0
