@@ -1,34 +1,43 @@
 """Which output suits an input: the user's own mesh, smoothed, or a new closed solid.
 
-Two measurements decide the ``auto`` output mesh of the default preset:
+Three measurements decide the ``auto`` output mesh of the default preset:
 
 - `solid_share`: is the input a solid? Its voxelization fills whatever it encloses; when that
   closes only small holes (the bunny's base), nearly all of the voxel surface lies on the input
   mesh. An open surface (a relief, a single-view scan) gets a cap that lies far from it.
-- `skeleton_noise_share`: does the input carry noise at the skeleton's scale? Bumps and stripes
+- `skeleton_noise_layer`: does the input carry noise at the skeleton's scale? Bumps and stripes
   several voxels tall, removed by the pruning, stick out of the denoised shape (`protruding`) and
-  rise at least `TALL` voxels above it; measured per voxel of the input's surface. Fine scanner
-  noise gives almost none of that: what the pruning takes off such inputs is the shape's own relief
-  (an ear's tip, the folds of a bust), which the fine pass keeps.
+  rise at least `TALL` voxels above it; their volume over the input's surface is the mean thickness
+  of that layer, given as a fraction of the model's size so that it does not depend on the grid.
+  On clean shapes what the pruning takes off is the shape's own relief (an ear's tip, a fold), a
+  thinner layer.
+- the fine noise on the mesh itself (`skelfilter.normal_filtering.noise_level`): a scanner's
+  noise turns every face away from its neighbours. Where it is strong the fine pass is the better
+  tool and the voxel stage's verdict mixes that noise with real relief; voxel-derived meshes
+  (marching cubes, segmentations) have a flat neighbour for every face.
 
-Chosen on `benchmarks/quality.py` (thesis-style noise: 0.22-2.4 on every case) and the
-literature's pairs and clean shapes (0.00-0.25, the highest on the open relief Nicolo, which the
-first test already sends to the kept mesh); see README "Output meshes".
+A new closed mesh is made when the layer reaches `NOISE_LAYER` and the fine noise stays under
+`FINE_NOISE`. Chosen on `benchmarks/quality.py` (thesis-style noise, seed 1 at 160: layer
+0.00091-0.0110 of the size, fine noise at most 0.007), the clean shapes (layer at most 0.0003) and
+the literature's pairs (fine noise 0.115-0.235); see README "Output meshes".
 """
 
 import numpy as np
 from scipy import ndimage
 
+from . import normal_filtering
 from .vertex_projection import protruding
 
 # Voxels of the input's voxel surface that must lie within `NEAR` voxels of the input mesh for the
 # input to count as a solid.
 SOLID_SHARE = 0.98
 NEAR = 2.0
-# Protruding removed voxels at least `TALL` voxels from the denoised shape, per surface voxel, from
-# which the input counts as covered in skeleton-scale noise.
+# Removed voxels count as tall noise from `TALL` voxels above the denoised shape; the input is
+# covered in skeleton-scale noise from a mean layer of `NOISE_LAYER` of its size, with fine noise
+# under `FINE_NOISE`.
 TALL = 2.0
-NOISE_SHARE = 0.17
+NOISE_LAYER = 6e-4
+FINE_NOISE = 0.08
 
 
 def surface_voxels(volume):
@@ -50,9 +59,18 @@ def solid_share(occupancy, mesh, grid):
     return float(np.mean(distance / grid.pitch <= NEAR))
 
 
-def skeleton_noise_share(occupancy, mask):
-    """Protruding removed voxels at least `TALL` voxels from ``mask``, per surface voxel of
-    ``occupancy`` (the input voxels; ``mask`` the denoised ones)."""
+def skeleton_noise_layer(occupancy, mask, resolution):
+    """Mean thickness, as a fraction of the model's size, of the protruding removed voxels at least
+    `TALL` voxels from ``mask`` spread over the surface of ``occupancy`` (the input voxels; ``mask``
+    the denoised ones; ``resolution`` voxels along the model's longest side)."""
     removed = protruding(occupancy & ~mask, mask)
     tall = removed & (ndimage.distance_transform_edt(~mask) >= TALL)
-    return float(np.count_nonzero(tall) / max(np.count_nonzero(surface_voxels(occupancy)), 1))
+    surface = max(np.count_nonzero(surface_voxels(occupancy)), 1)
+    return float(np.count_nonzero(tall) / surface / resolution)
+
+
+def fine_noise(mesh):
+    """`skelfilter.normal_filtering.noise_level` of a mesh."""
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    normals = normal_filtering.face_normals(np.asarray(mesh.vertices, dtype=np.float64), faces)
+    return normal_filtering.noise_level(normals, normal_filtering.face_neighbours(faces, len(mesh.vertices)))

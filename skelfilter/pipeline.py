@@ -297,11 +297,13 @@ def denoise_mesh_detailed(mesh, params=None, progress=None, **overrides):
     result = denoise_padded(occupancy.copy(), params, progress)
     voxel_moves = output == "input"
     if output == "auto":
-        share = output_choice.skeleton_noise_share(occupancy, result.mask)
-        output = "closed" if share >= output_choice.NOISE_SHARE else "input"
-        progress.note(f"output: {'a new closed mesh' if output == 'closed' else 'the input mesh, smoothed'} "
-                      f"(skeleton-scale noise: {share:.2f} voxels per surface voxel, "
-                      f"{output_choice.NOISE_SHARE} or more makes a new closed mesh)")
+        layer = output_choice.skeleton_noise_layer(occupancy, result.mask, params.resolution)
+        fine = output_choice.fine_noise(mesh)
+        closed = layer >= output_choice.NOISE_LAYER and fine < output_choice.FINE_NOISE
+        output = "closed" if closed else "input"
+        progress.note(f"output: {'a new closed mesh' if closed else 'the input mesh, smoothed'} "
+                      f"(skeleton-scale noise {layer:.5f} of the size, {output_choice.NOISE_LAYER:g} or more, "
+                      f"and fine noise {fine:.3f}, under {output_choice.FINE_NOISE:g}, make a new closed mesh)")
     if output == "closed":
         if params.unchanged_surface == "input":
             with progress.step("input surface"):
