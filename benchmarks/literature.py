@@ -12,12 +12,16 @@ face-normal angle in degrees / E_v in mean edge lengths) and skelfilter's time:
   defaults, ``meshlab_scripts/taubin.mlx``) on both scores on every pair, and below pygel3d's
   ``hmesh.anisotropic_smooth`` (10 iterations) on the two fandisk pairs.
 
-    python benchmarks/literature.py [--part own|literature|all] [--out FILE.md]
+    python benchmarks/literature.py [--part own|literature|all] [--out FILE.md] [--pictures DIR]
+
+``--pictures`` also draws two pairs (noisy, Taubin, pygel3d, skelfilter, clean; overview and close-up),
+the README's ``docs/everyday-*.png``.
 """
 
 import argparse
 import os
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -50,22 +54,72 @@ def gaussian_noise(clean, level, seed=SEED):
     return trimesh.Trimesh(clean.vertices + clean.vertex_normals * offset[:, None], clean.faces, process=False)
 
 
-def score_row(name, noisy, clean):
-    """The scores of noisy, Taubin, pygel3d and skelfilter on one pair."""
-    row = {"case": name, "noisy": metrics.literature_errors(noisy, clean)}
-    row["taubin"] = metrics.literature_errors(meshlab.run_filter_script(noisy, TAUBIN), clean)
+# Pictures for the README: pair -> (view direction, centre -> eye; up).
+PICTURES = {"Fandisk0.7": ((1.0, -1.2, 0.9), (0.0, 0.0, 1.0)),
+            "Nicolo0.2": ((-0.77, 0.59, -0.24), (0.0, 0.0, 1.0))}
+CELL = (380, 340)
+
+
+def results(noisy, clean):
+    """The result meshes of Taubin, pygel3d (None when it fails) and skelfilter, with skelfilter's
+    time and notes."""
+    taubin = meshlab.run_filter_script(noisy, TAUBIN)
     try:
-        row["pygel3d"] = metrics.literature_errors(pygel3d_smooth(noisy), clean)
+        pygel = pygel3d_smooth(noisy)
     except SkelfilterError as exc:  # a library's crash is a row entry, not the end of the run
-        row["pygel3d"] = None
-        print(f"  pygel3d failed on {name}: {exc}", file=sys.stderr)
+        pygel = None
+        print(f"  pygel3d failed: {exc}", file=sys.stderr)
     progress = Progress(enabled=False)
     start = time.perf_counter()
     out = pipeline.denoise_mesh(noisy, progress=progress)
-    row["seconds"] = time.perf_counter() - start
-    row["skelfilter"] = metrics.literature_errors(out, clean)
-    row["notes"] = "; ".join(progress.notes)
+    return taubin, pygel, out, time.perf_counter() - start, "; ".join(progress.notes)
+
+
+def score_row(name, noisy, clean, pictures=None):
+    """The scores of noisy, Taubin, pygel3d and skelfilter on one pair; pictures in the folder
+    ``pictures`` for the pairs of `PICTURES`."""
+    taubin, pygel, out, seconds, notes = results(noisy, clean)
+    row = {"case": name, "noisy": metrics.literature_errors(noisy, clean), "seconds": seconds, "notes": notes,
+           "taubin": metrics.literature_errors(taubin, clean),
+           "pygel3d": None if pygel is None else metrics.literature_errors(pygel, clean),
+           "skelfilter": metrics.literature_errors(out, clean)}
+    if pictures and name in PICTURES:
+        pictures_of(name, [noisy, taubin, pygel, out, clean], row, os.path.join(pictures, f"everyday-{name}.png"))
     return row
+
+
+def pictures_of(name, meshes, row, path):
+    """An overview and a close-up of a sharp edge (noisy, Taubin, pygel3d, skelfilter, clean), each
+    cell drawn by `comparisons.render` with one camera per row, titled with its scores."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from comparisons import render
+
+    view, up = PICTURES[name]
+    overview = render.camera_for(meshes[-1], view, up)
+    cameras = (overview, render.closeup_camera(meshes[-1], overview))
+    titles = [f"noisy {_cell(row['noisy'])}", f"MeshLab Taubin {_cell(row['taubin'])}",
+              f"pygel3d {_cell(row['pygel3d'])}", f"skelfilter {_cell(row['skelfilter'])}", "clean"]
+    fig, axes = plt.subplots(2, len(meshes), figsize=(CELL[0] / 100 * len(meshes), 2 * CELL[1] / 100 + 0.6), dpi=100)
+    with tempfile.TemporaryDirectory() as work:
+        for r, camera in enumerate(cameras):
+            for c, (mesh, title) in enumerate(zip(meshes, titles)):
+                ax = axes[r, c]
+                ax.set_axis_off()
+                if mesh is None:
+                    continue
+                cell = os.path.join(work, f"{r}-{c}.png")
+                render.render(mesh, camera, cell, CELL)
+                ax.imshow(plt.imread(cell))
+                if r == 0:
+                    ax.set_title(title, fontsize=9)
+    fig.suptitle(f"{name}: mean normal angle / E_v; bottom row: close-up of a sharp edge", fontsize=11)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
 
 
 def _cell(value):
@@ -87,6 +141,7 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--part", choices=("own", "literature", "all"), default="all")
     p.add_argument("--out", help="also write the tables to this Markdown file")
+    p.add_argument("--pictures", help="folder for the close-ups (e.g. docs)")
     args = p.parse_args(argv)
     out = ["# Everyday noise: mean normal angle / E_v (mean edge lengths)", ""]
     if args.part in ("own", "all"):
@@ -103,7 +158,7 @@ def main(argv=None):
         for pair in PAIRS:
             folder = os.path.join(DATA, "literature", pair)
             rows.append(score_row(pair, io.load_mesh(os.path.join(folder, "noisy.obj")),
-                                  io.load_mesh(os.path.join(folder, "clean.obj"))))
+                                  io.load_mesh(os.path.join(folder, "clean.obj")), args.pictures))
             print(f"{pair}: {_cell(rows[-1]['skelfilter'])} ({rows[-1]['notes']})", file=sys.stderr, flush=True)
         out.append(table(rows, "The literature's pairs (held out)"))
     text = "\n".join(out)

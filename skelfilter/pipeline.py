@@ -285,25 +285,29 @@ def denoise_mesh_detailed(mesh, params=None, progress=None, **overrides):
         progress.note(f"resolution {params.resolution} voxels (from the mesh's mean edge length)")
     occupancy, grid = _voxelize(mesh, params.resolution, params.padding_voxels, progress)
     output = params.output_mesh
-    solid = True
-    if output != "closed":
+    skipped = None  # why the voxel stage does not run
+    if output == "auto":
+        fine = output_choice.fine_noise(mesh)
+        if fine >= output_choice.FINE_NOISE:
+            skipped = (f"fine noise {fine:.3f} (from {output_choice.FINE_NOISE:g}): the input mesh comes back, "
+                       "smoothed by the fine pass")
+    if skipped is None and output != "closed":
         with progress.step("solid check"):
-            solid = output_choice.solid_share(occupancy, mesh, grid) >= output_choice.SOLID_SHARE
-    if not solid:
-        progress.note("the input is an open surface: its own mesh comes back, smoothed by the fine pass "
-                      "(the voxel stage needs a solid; --close makes one)")
+            if output_choice.solid_share(occupancy, mesh, grid) < output_choice.SOLID_SHARE:
+                skipped = ("the input is an open surface: its own mesh comes back, smoothed by the fine pass "
+                           "(the voxel stage needs a solid; --close makes one)")
+    if skipped is not None:
+        progress.note(skipped)
         result = DenoiseResult(mask=occupancy, field=None, timings=progress.timings)
         return _kept_mesh(mesh, None, params, grid, progress), result, grid
     result = denoise_padded(occupancy.copy(), params, progress)
     voxel_moves = output == "input"
     if output == "auto":
         layer = output_choice.skeleton_noise_layer(occupancy, result.mask, params.resolution)
-        fine = output_choice.fine_noise(mesh)
-        closed = layer >= output_choice.NOISE_LAYER and fine < output_choice.FINE_NOISE
-        output = "closed" if closed else "input"
-        progress.note(f"output: {'a new closed mesh' if closed else 'the input mesh, smoothed'} "
-                      f"(skeleton-scale noise {layer:.5f} of the size, {output_choice.NOISE_LAYER:g} or more, "
-                      f"and fine noise {fine:.3f}, under {output_choice.FINE_NOISE:g}, make a new closed mesh)")
+        output = "closed" if layer >= output_choice.NOISE_LAYER else "input"
+        progress.note(f"output: {'a new closed mesh' if output == 'closed' else 'the input mesh, smoothed'} "
+                      f"(skeleton-scale noise {layer:.5f} of the size; from {output_choice.NOISE_LAYER:g} "
+                      "a new closed mesh)")
     if output == "closed":
         if params.unchanged_surface == "input":
             with progress.step("input surface"):

@@ -107,7 +107,7 @@ def test_open_scan_stays_open_and_on_its_surface():
     scan = io.load_mesh(SCAN)
     progress = Progress(enabled=False)
     out, result, grid = pipeline.denoise_mesh_detailed(scan, progress=progress)
-    assert any("open surface" in n for n in progress.notes)
+    assert any("the input mesh comes back" in n for n in progress.notes)
     assert np.array_equal(out.faces, scan.faces)
     assert np.array_equal(vertex_projection.boundary_vertices(out.faces, len(out.vertices)),
                           vertex_projection.boundary_vertices(scan.faces, len(scan.vertices)))
@@ -196,3 +196,13 @@ def test_auto_output_picks_a_closed_mesh_for_skeleton_scale_noise():
     out, _, _ = pipeline.denoise_mesh_detailed(noisy, DenoiseParams(resolution=96), progress)
     assert any("new closed mesh" in n for n in progress.notes)
     assert out.is_watertight and len(out.faces) != len(noisy.faces)
+
+
+def test_clean_open_surface_skips_the_voxel_stage():
+    sphere = trimesh.creation.icosphere(4)
+    cap = sphere.submesh([np.flatnonzero(sphere.triangles_center[:, 2] > 0.2)], append=True)
+    progress = Progress(enabled=False)
+    out, result, _ = pipeline.denoise_mesh_detailed(cap, progress=progress)
+    assert any("open surface" in n for n in progress.notes) and not result.stages
+    assert np.array_equal(out.faces, cap.faces)
+    assert np.abs(out.vertices - cap.vertices).max() < 0.1 * cap.edges_unique_length.mean()
