@@ -120,6 +120,9 @@ def _denoise(args):
     mesh = io.load_mesh(args.input)
     progress = Progress(enabled=args.progress)
     out, result, grid = pipeline.denoise_mesh_detailed(mesh, params, progress)
+    if args.save_skeleton and not result.stages:
+        raise InputError(f"--save-skeleton: no skeleton was computed ({progress.notes[-1]}); "
+                         "--close runs the voxel stage")
     protect = [args.input]
     io.save_mesh(out, args.output, protect=protect)
     if args.save_skeleton:
