@@ -27,21 +27,34 @@ from .filters import ADD_SKELETON_NOISE, FILTERS, SKELETON_SALIENCY_DENOISE
 
 
 def to_trimesh(mesh):
-    """A ``pymeshlab.Mesh`` as a ``trimesh.Trimesh``: same vertices and faces, in the same order.
+    """A ``pymeshlab.Mesh`` as a ``trimesh.Trimesh``: same vertices and faces, in the same order, and
+    its per-vertex or per-face colours.
 
     A mesh with deleted elements is compacted first (pymeshlab gives no matrices otherwise).
     """
     if not mesh.is_compact():
         mesh.compact()
-    return trimesh.Trimesh(vertices=mesh.vertex_matrix(), faces=mesh.face_matrix(), process=False)
+    out = trimesh.Trimesh(vertices=mesh.vertex_matrix(), faces=mesh.face_matrix(), process=False)
+    if mesh.has_vertex_color():
+        out.visual.vertex_colors = np.round(mesh.vertex_color_matrix() * 255).astype(np.uint8)
+    elif mesh.has_face_color():
+        out.visual.face_colors = np.round(mesh.face_color_matrix() * 255).astype(np.uint8)
+    return out
 
 
 def to_pymeshlab(mesh):
-    """A ``trimesh.Trimesh`` as a ``pymeshlab.Mesh``: same vertices and faces, in the same order."""
+    """A ``trimesh.Trimesh`` as a ``pymeshlab.Mesh``: same vertices and faces, in the same order, and
+    its per-vertex or per-face colours."""
     import pymeshlab
 
+    colours = {}
+    kind = getattr(mesh.visual, "kind", None)
+    if kind == "vertex":
+        colours["v_color_matrix"] = np.asarray(mesh.visual.vertex_colors, dtype=np.float64) / 255
+    elif kind == "face":
+        colours["f_color_matrix"] = np.asarray(mesh.visual.face_colors, dtype=np.float64) / 255
     return pymeshlab.Mesh(vertex_matrix=np.asarray(mesh.vertices, dtype=np.float64),
-                          face_matrix=np.asarray(mesh.faces, dtype=np.int32))
+                          face_matrix=np.asarray(mesh.faces, dtype=np.int32), **colours)
 
 
 def _docstring(description):

@@ -206,3 +206,18 @@ def test_clean_open_surface_skips_the_voxel_stage():
     assert any("open surface" in n for n in progress.notes) and not result.stages
     assert np.array_equal(out.faces, cap.faces)
     assert np.abs(out.vertices - cap.vertices).max() < 0.1 * cap.edges_unique_length.mean()
+
+
+def test_meshset_keeps_the_layer_colours():
+    from skelfilter import meshset
+
+    noisy, _ = noisy_sphere()
+    noisy.visual.vertex_colors = np.random.default_rng(2).integers(0, 255, (len(noisy.vertices), 4), dtype=np.uint8)
+    import pymeshlab
+
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(meshset.to_pymeshlab(noisy))
+    meshset.apply_skeleton_saliency_denoise(ms)
+    out = meshset.to_trimesh(ms.current_mesh())
+    assert np.array_equal(out.faces, noisy.faces)
+    assert np.array_equal(out.visual.vertex_colors, noisy.visual.vertex_colors)
