@@ -86,6 +86,12 @@ def _check(element, source):
     if pname is None:
         raise InputError(f"{where}: unknown filter: not a skelfilter filter "
                          f"({', '.join(d.name for d in filters.FILTERS)}) and not available in pymeshlab")
+    if meshlab_filters.touches_files(pname):
+        raise InputError(f"{where}: reads or writes files; not allowed in scripts")
+    for p in element.params:
+        if p.attrs.get("type") in meshlab_filters.FILE_TYPES:
+            raise InputError(f"{source}:{p.line}: filter {element.name!r}, parameter {p.name!r}: a file name "
+                             f"({p.attrs.get('type')}); not allowed in scripts")
     params, attrs = meshlab_filters.check_filter(element, pname, source)
     return Step(pname, params, where, attrs)
 

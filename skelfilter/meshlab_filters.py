@@ -54,6 +54,31 @@ _RICH_TYPES_OF = {
     "Color": ("RichColor",),
 }
 
+# pymeshlab filters that read or write files, or reach the network: a filter script is data from
+# anyone, so none of them may run from one. Found by reading every filter's parameter list
+# (``parameter_lists``) for file names (``input_file``, ``csvfilename``, ``imagefilename``,
+# ``textname`` ...) and by their documentation; `touches_files` also refuses any filter with a
+# parameter named like a file, so a filter added by a later pymeshlab is refused until checked.
+FILE_FILTERS = frozenset({
+    "nxs_build", "nxs_compress",  # read and write Nexus files
+    "save_snapshot", "save_active_raster_cameras", "load_active_raster_cameras",
+    "compute_color_from_scalar_using_transfer_function_per_vertex",  # reads a CSV transfer function
+    "compute_color_and_texture_from_active_rasters_projection",  # writes a texture image
+    "compute_texcoord_parametrization_and_texture_from_registered_rasters",  # writes a texture image
+    "compute_texmap_from_color", "transfer_attributes_to_texture_per_vertex",  # write texture images
+    "set_texture_per_mesh",  # reads or writes a texture image
+    "export_mesh_to_sketchfab",  # uploads the mesh
+})
+_FILE_PARAM_RE = re.compile(r"file|path|folder|director|url|textname|texturename")
+# .mlx parameter types that carry file names
+FILE_TYPES = ("RichOpenFile", "RichSaveFile")
+
+
+def touches_files(pname):
+    """Whether pymeshlab's filter ``pname`` reads or writes files (see `FILE_FILTERS`)."""
+    return pname in FILE_FILTERS or any(_FILE_PARAM_RE.search(k) for k in parameter_lists().get(pname, {}))
+
+
 _HEADER_RE = re.compile(r"^(\w+) filter - list of parameter names:$")
 _PARAM_RE = re.compile(r"^\t(\w+) : (.+?) = (.*)$")
 

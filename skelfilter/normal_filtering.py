@@ -22,27 +22,31 @@ import numpy as np
 from scipy import sparse
 
 
-def face_neighbours(faces, n_vertices):
+def face_neighbours(faces, n_vertices, subset=None):
     """Pairs ``(i, j)``, ``i != j``, of faces that share at least one vertex.
 
     Parameters
     ----------
     faces : (m, 3) int array
     n_vertices : int
+    subset : int array, optional
+        Only pairs whose first face is one of these.
 
     Returns
     -------
     i, j : int arrays
-        Each unordered pair appears twice, once each way.
+        Each unordered pair appears twice, once each way (with ``subset``: once per face of it).
     """
     m = len(faces)
     incidence = sparse.csr_matrix(
         (np.ones(3 * m, dtype=np.int8), (np.repeat(np.arange(m), 3), faces.reshape(-1))),
         shape=(m, n_vertices),
     )
-    shared = (incidence @ incidence.T).tocoo()
-    other = shared.row != shared.col
-    return shared.row[other].astype(np.int64), shared.col[other].astype(np.int64)
+    rows = np.arange(m) if subset is None else np.asarray(subset)
+    shared = (incidence[rows] @ incidence.T).tocoo()
+    i = rows[shared.row]
+    other = i != shared.col
+    return i[other].astype(np.int64), shared.col[other].astype(np.int64)
 
 
 def _face_geometry(vertices, faces):
@@ -164,7 +168,7 @@ def noise_level(normals, pairs):
     i, j = pairs
     if i.size == 0:
         return 0.0
-    smallest = np.full(len(normals), np.inf)
+    smallest = np.full(len(normals), np.inf)  # faces without pairs (outside a subset) stay infinite
     np.minimum.at(smallest, i, np.linalg.norm(normals[i] - normals[j], axis=1))
     return float(np.median(smallest[np.isfinite(smallest)]))
 

@@ -287,13 +287,16 @@ def denoise_mesh_detailed(mesh, params=None, progress=None, **overrides):
     output = params.output_mesh
     skipped = None  # why the voxel stage does not run
     if output == "auto":
-        fine = output_choice.fine_noise(mesh)
+        with progress.step("fine noise"):
+            fine = output_choice.fine_noise(mesh)
         if fine >= output_choice.FINE_NOISE:
             skipped = (f"fine noise {fine:.3f} (from {output_choice.FINE_NOISE:g}): the input mesh comes back, "
                        "smoothed by the fine pass")
     if skipped is None and output != "closed":
         with progress.step("solid check"):
-            if output_choice.solid_share(occupancy, mesh, grid) < output_choice.SOLID_SHARE:
+            solid = (output_choice.is_closed(mesh.faces)
+                     or output_choice.solid_share(occupancy, mesh, grid) >= output_choice.SOLID_SHARE)
+            if not solid:
                 skipped = ("the input is an open surface: its own mesh comes back, smoothed by the fine pass "
                            "(the voxel stage needs a solid; --close makes one)")
     if skipped is not None:
@@ -303,7 +306,8 @@ def denoise_mesh_detailed(mesh, params=None, progress=None, **overrides):
     result = denoise_padded(occupancy.copy(), params, progress)
     voxel_moves = output == "input"
     if output == "auto":
-        layer = output_choice.skeleton_noise_layer(occupancy, result.mask, params.resolution)
+        with progress.step("noise layer"):
+            layer = output_choice.skeleton_noise_layer(occupancy, result.mask, params.resolution)
         output = "closed" if layer >= output_choice.NOISE_LAYER else "input"
         progress.note(f"output: {'a new closed mesh' if output == 'closed' else 'the input mesh, smoothed'} "
                       f"(skeleton-scale noise {layer:.5f} of the size; from {output_choice.NOISE_LAYER:g} "

@@ -13,6 +13,7 @@ faces still point against the surface or have lost their area.
 import numpy as np
 from scipy import ndimage
 
+from .neighbourhood import bounding_box
 from .normal_filtering import vertex_adjacency
 
 # A face is degenerate when its area falls under this share of the mesh's mean face area.
@@ -136,26 +137,31 @@ def protruding(part, rest, share=0.6):
 
     Parameters
     ----------
-    part, rest : bool arrays of one shape, disjoint; the grid's outer layer must be outside both
+    part, rest : bool arrays of one shape, disjoint
 
     Returns
     -------
     bool array
     """
+    out = np.zeros_like(part)
+    box = bounding_box(part, margin=1)
+    if box is None:
+        return out
+    part, outside = part[box], ~(part[box] | rest[box])
     labels, count = ndimage.label(part)
-    if count == 0:
-        return part.copy()
     faces = np.zeros(count + 1)
     free = np.zeros(count + 1)
-    outside = ~(part | rest)
     for axis in range(3):
-        for shift in (1, -1):
-            border = part & ~np.roll(part, shift, axis)
-            faces += np.bincount(labels[border], minlength=count + 1)
-            free += np.bincount(labels[border & np.roll(outside, shift, axis)], minlength=count + 1)
+        lower = tuple(slice(0, -1) if a == axis else slice(None) for a in range(3))
+        upper = tuple(slice(1, None) if a == axis else slice(None) for a in range(3))
+        for here, there in ((lower, upper), (upper, lower)):
+            border = part[here] & ~part[there]
+            faces += np.bincount(labels[here][border], minlength=count + 1)
+            free += np.bincount(labels[here][border & outside[there]], minlength=count + 1)
     keep = free >= share * np.maximum(faces, 1)
     keep[0] = False
-    return keep[labels]
+    out[box] = keep[labels]
+    return out
 
 
 def grow(seed, allowed, faces, n_vertices):
