@@ -1,9 +1,12 @@
 """Running C++ libraries that can crash (pymeshlab, MeshLib) in a child Python process.
 
 A segmentation fault, an abort or a hang in the child becomes a :class:`SkelfilterError` naming what
-ran, instead of taking the caller down.
+ran, instead of taking the caller down. A child dies with its parent: on an interrupt or a SIGTERM
+the parent kills it (``subprocess.run`` does on any exception) and its temporary folder goes; if the
+parent is killed outright, Linux kills the child (``PR_SET_PDEATHSIG``).
 """
 
+import ctypes
 import os
 import signal
 import subprocess
@@ -18,6 +21,18 @@ def signal_text(code):
         return f"{signal.strsignal(code) or signal.Signals(code).name} (signal {code})"
     except (ValueError, AttributeError):
         return f"signal {code}"
+
+
+_PR_SET_PDEATHSIG = 1
+
+
+def _die_with_parent():
+    """In the child, before it runs: have Linux kill it when its parent dies, however the parent dies
+    (a SIGKILL included), so no child is ever left running alone."""
+    try:
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
+    except (OSError, AttributeError):  # not Linux/glibc: the parent's cleanup still kills the child
+        pass
 
 
 def run_child(module, function, workdir, timeout, what):
@@ -40,7 +55,8 @@ def run_child(module, function, workdir, timeout, what):
     env["PYTHONPATH"] = os.pathsep.join(p for p in (package_parent, env.get("PYTHONPATH")) if p)
     cmd = [sys.executable, "-c", f"import sys; from {module} import {function}; {function}(sys.argv[1])", workdir]
     try:
-        proc = subprocess.run(cmd, env=env, stdin=subprocess.DEVNULL, capture_output=True, timeout=timeout)
+        proc = subprocess.run(cmd, env=env, stdin=subprocess.DEVNULL, capture_output=True, timeout=timeout,
+                              preexec_fn=_die_with_parent)
     except subprocess.TimeoutExpired:
         raise SkelfilterError(f"{what} did not finish within {timeout:g} s; the child process was killed") \
             from None

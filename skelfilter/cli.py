@@ -6,14 +6,21 @@ itself read off the parameter dataclasses in :mod:`skelfilter.params`.
 """
 
 import argparse
+import signal
 import sys
 
-import numpy as np
+# Libraries start native threads when they load (OpenBLAS, numba): started with SIGINT and SIGTERM
+# blocked, they never receive them (see skelfilter.signals).
+_MASK = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+try:
+    import numpy as np
 
-from . import filters, io, meshlab, meshlab_filters, pipeline
-from .errors import InputError, SkelfilterError
-from .filters import ADD_SKELETON_NOISE, SKELETON_SALIENCY_DENOISE
-from .progress import Progress
+    from . import filters, io, meshlab, meshlab_filters, pipeline, signals
+    from .errors import InputError, SkelfilterError
+    from .filters import ADD_SKELETON_NOISE, SKELETON_SALIENCY_DENOISE
+    from .progress import Progress
+finally:
+    signal.pthread_sigmask(signal.SIG_SETMASK, _MASK)
 
 
 def _flag(name):
@@ -214,9 +221,20 @@ def _compare(args):
     run_compare(config, args.out, Reporter(enabled=args.progress is not False))
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where Python is, so that every ``finally`` and ``with`` cleans up (children,
+    temporary files) as on Ctrl-C."""
+
+
+def _terminate(signum, frame):
+    raise Terminated()
+
+
 def main(argv=None):
     args = build_parser().parse_args(argv)
+    previous = signal.signal(signal.SIGTERM, _terminate)
     try:
+        signals.start_workers_shielded()
         {"denoise": _denoise, "noise": _noise, "run-script": _run_script, "export-script": _export_script,
          "filters": _filters, "compare": _compare}[args.command](args)
     except SkelfilterError as exc:
@@ -225,8 +243,14 @@ def main(argv=None):
     except MemoryError:
         print("skelfilter: error: out of memory; lower --resolution", file=sys.stderr)
         return 3
+    except Terminated:
+        print("skelfilter: terminated", file=sys.stderr)
+        return 143
     except KeyboardInterrupt:
+        print("skelfilter: interrupted", file=sys.stderr)
         return 130
+    finally:
+        signal.signal(signal.SIGTERM, previous)
     return 0
 
 

@@ -188,7 +188,7 @@ def run_steps(steps, mesh, timeout=300, progress=None):
     for is_meshlab, run in itertools.groupby(steps, key=lambda step: step.filter is None):
         run = list(run)
         if is_meshlab:
-            with progress.step(f"MeshLab: {', '.join(step.name for step in run)}"):
+            with progress.step(f"MeshLab: {', '.join(step.name for step in run)}", shield=False):
                 layers = _run_meshlab(layers, run, timeout)
             continue
         for step in run:

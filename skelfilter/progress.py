@@ -1,8 +1,15 @@
 """Step timing, and a one-line-per-step progress display on a terminal."""
 
+import os
 import sys
 import time
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
+
+from .signals import deferred
+
+# hidden hook for the interrupt tests: the step of this name (with its stage prefix) announces itself
+# on stderr and waits, so a test can signal the process inside any step
+_PAUSE_ENV = "_SKELFILTER_PAUSE_STEP"
 
 
 class Progress:
@@ -38,13 +45,26 @@ class Progress:
             self._prefix = saved
 
     @contextmanager
-    def step(self, name):
+    def step(self, name, shield=True):
+        """Time the block as step ``name``; with ``shield`` an interrupt waits until it ends
+        (`skelfilter.signals.deferred`): leave it off for steps that wait on child processes."""
         key = self._prefix + name
         if self.enabled:
             self.stream.write(f"  {key} ...")
             self.stream.flush()
         start = time.perf_counter()
-        yield
+        try:
+            with deferred() if shield else nullcontext():
+                if os.environ.get(_PAUSE_ENV) == key:
+                    sys.stderr.write(f"paused in {key}\n")
+                    sys.stderr.flush()
+                    time.sleep(1)
+                yield
+        except BaseException:
+            if self.enabled:
+                self.stream.write(" stopped\n")
+                self.stream.flush()
+            raise
         elapsed = time.perf_counter() - start
         self.timings[key] = self.timings.get(key, 0.0) + elapsed
         if self.enabled:

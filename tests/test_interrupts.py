@@ -1,0 +1,120 @@
+"""Interrupts: SIGINT or SIGTERM in any pipeline step, or while a MeshLab child runs, end with one
+line, exit 130 (143 for SIGTERM), no output, no temporary file or folder, no child left running."""
+
+import glob
+import hashlib
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+import pytest
+import trimesh
+
+from skelfilter import pipeline
+
+# every step of a run, with the output mesh that makes it run
+STEPS = [(step, "auto") for step in (
+    "voxelize", "fine noise", "solid check", "foreground/distance transform", "foreground/skeleton",
+    "foreground/importance", "foreground/derivative measure", "foreground/rho+", "foreground/EDT filter",
+    "foreground/reconstruction", "specks", "needles", "noise layer")]
+STEPS += [("input surface", "closed"), ("marching cubes", "closed"), ("vertices moved", "input"), ("fine pass", "input")]
+
+
+def digest(path):
+    return hashlib.sha256(open(path, "rb").read()).hexdigest()
+
+
+@pytest.fixture(scope="module")
+def noisy_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("in") / "noisy.ply"
+    noisy, _, _ = pipeline.noisy_mesh(trimesh.creation.box((1.0, 0.8, 0.6)), resolution=48, seed=1)
+    noisy.export(path)
+    return path
+
+
+def start(args, env_extra):
+    env = dict(os.environ, **env_extra)
+    return subprocess.Popen([sys.executable, "-m", "skelfilter.cli", *map(str, args)], env=env,
+                            stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
+
+
+def wait_for(proc, text, timeout=120):
+    """Read stderr lines until one contains ``text``; returns the lines read."""
+    lines, deadline = [], time.time() + timeout
+    while time.time() < deadline:
+        line = proc.stderr.readline()
+        if not line:
+            break
+        lines.append(line)
+        if text in line:
+            return lines
+    raise AssertionError(f"never saw {text!r}: {''.join(lines)[-2000:]}")
+
+
+def finish(proc, lines):
+    rest = proc.communicate(timeout=120)[1]
+    errors = [line for line in (lines + rest.splitlines()) if line.startswith("skelfilter:")]
+    return proc.returncode, errors
+
+
+@pytest.mark.parametrize("step, output_mesh", STEPS)
+def test_an_interrupt_in_any_step_ends_cleanly(noisy_file, tmp_path, step, output_mesh):
+    before = digest(noisy_file)
+    out = tmp_path / "out.ply"
+    for sig, code, word in ((signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")):
+        proc = start(["denoise", noisy_file, out, "--resolution", "48", "--output-mesh", output_mesh],
+                     {"_SKELFILTER_PAUSE_STEP": step})
+        lines = wait_for(proc, f"paused in {step}")
+        proc.send_signal(sig)
+        returncode, errors = finish(proc, lines)
+        assert (returncode, errors) == (code, [f"skelfilter: {word}\n".strip()]), (step, errors)
+        assert not out.exists() and not os.listdir(tmp_path)
+    assert digest(noisy_file) == before
+
+
+def _children(pid):
+    try:
+        return [int(c) for c in open(f"/proc/{pid}/task/{pid}/children").read().split()]
+    except OSError:
+        return []
+
+
+def _gone(pid, timeout=10.0):
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        try:
+            state = open(f"/proc/{pid}/stat").read().split(")")[-1].split()[0]
+        except OSError:
+            return True
+        if state == "Z":
+            return True
+        time.sleep(0.1)
+    return False
+
+
+@pytest.mark.parametrize("sig, code, word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated"),
+                                             (signal.SIGKILL, -9, None)])
+def test_a_meshlab_child_dies_with_its_parent(tmp_path, sig, code, word):
+    mesh = tmp_path / "cube.ply"
+    trimesh.creation.box().export(mesh)
+    script = tmp_path / "s.mlx"
+    script.write_text('<!DOCTYPE FilterScript>\n<FilterScript>\n <filter name="Taubin Smooth"/>\n</FilterScript>\n')
+    folders = set(glob.glob(os.path.join(tempfile.gettempdir(), "skelfilter-meshlab-*")))
+    proc = start(["run-script", script, mesh, tmp_path / "out.ply"], {"_SKELFILTER_MESHLAB_CHILD_HOOK": "sleep"})
+    deadline = time.time() + 60
+    while not _children(proc.pid) and time.time() < deadline:
+        time.sleep(0.1)
+    time.sleep(1.0)
+    children = _children(proc.pid)
+    assert children
+    proc.send_signal(sig)
+    returncode, errors = finish(proc, [])
+    assert returncode == code
+    if word:
+        assert errors == [f"skelfilter: {word}"]
+        assert set(glob.glob(os.path.join(tempfile.gettempdir(), "skelfilter-meshlab-*"))) == folders
+    assert all(_gone(c) for c in children)
+    assert not (tmp_path / "out.ply").exists()
