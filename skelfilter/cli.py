@@ -6,6 +6,8 @@ itself read off the parameter dataclasses in :mod:`skelfilter.params`.
 """
 
 import argparse
+import math
+import os
 import signal
 import sys
 
@@ -21,6 +23,24 @@ try:
     from .progress import Progress
 finally:
     signal.pthread_sigmask(signal.SIG_SETMASK, _MASK)
+
+
+class _Parser(argparse.ArgumentParser):
+    """Usage mistakes end like every other refusal: one line ``skelfilter: error: …``, exit 2."""
+
+    def error(self, message):
+        self.exit(2, f"skelfilter: error: {message} (see {self.prog} --help)\n")
+
+
+def _seconds(text):
+    """A time limit in seconds: a finite number in (0, 1e6]."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (math.isfinite(value) and 0 < value <= 1e6):
+        raise argparse.ArgumentTypeError(f"must be a number of seconds in (0, 1e6], got {text}")
+    return value
 
 
 def _flag(name):
@@ -54,7 +74,7 @@ def _params(description, args):
 
 
 def build_parser():
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="skelfilter",
         description="Remove small-scale bumps and dents from meshes by pruning the surface skeleton.",
     )
@@ -81,7 +101,7 @@ def build_parser():
     run.add_argument("script", help="the .mlx filter script, checked whole before anything runs")
     run.add_argument("input", help="input mesh (layer 0); never modified")
     run.add_argument("output", help="the current layer at the end, written atomically")
-    run.add_argument("--timeout", type=float, default=300.0, metavar="SECONDS",
+    run.add_argument("--timeout", type=_seconds, default=300.0, metavar="SECONDS",
                      help="time each run of consecutive MeshLab filters may take (default: 300)")
     _add_display_flags(run)
 
@@ -217,6 +237,10 @@ def _compare(args):
     from comparisons.config import load_config
     from comparisons.run import Reporter, run_compare
 
+    if args.config is not None and not os.path.isfile(args.config):
+        raise InputError(f"{args.config}: no such configuration file")
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise InputError(f"{args.out}: exists and is not a folder")
     config = load_config(args.config, jobs=args.jobs, resolution=args.resolution)
     run_compare(config, args.out, Reporter(enabled=args.progress is not False))
 

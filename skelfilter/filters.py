@@ -45,11 +45,13 @@ class FilterParameter:
     measure: str  # ABSOLUTE, RELATIVE or "" (not a length)
     choices: tuple  # the entries of a RichEnum
     optional: bool  # None allowed in Python (written 0 in MeshLab)
+    limits: tuple = None  # closed range of a number (params.check_limits)
 
     @property
     def full_tooltip(self):
         """The tooltip with the unit and, for lengths and thresholds, the measure."""
-        notes = [n for n in (self.unit, MEASURES.get(self.measure)) if n]
+        limits = f"range {self.limits[0]:g} to {self.limits[1]:g}" if self.limits else ""
+        notes = [n for n in (self.unit, MEASURES.get(self.measure), limits) if n]
         return f"{self.tooltip} [{', '.join(notes)}]" if notes else self.tooltip
 
     @property
@@ -108,6 +110,7 @@ def describe_parameters(params_class):
             measure=meta.get("measure", ""),
             choices=meta.get("choices", ()),
             optional=type(None) in typing.get_args(f.type),
+            limits=meta.get("limits"),
         ))
     return tuple(out)
 
@@ -230,11 +233,12 @@ def markdown():
                 f"Python: `skelfilter.meshset.{d.python_name}(ms, **params)` · CLI: "
                 f"`skelfilter {d.command}` · .mlx: `<filter name=\"{d.name}\">`", "",
                 d.description, "",
-                "| name | type | default | description | unit | measure | tooltip |",
-                "|---|---|---|---|---|---|---|"]
+                "| name | type | default | description | unit | measure | range | tooltip |",
+                "|---|---|---|---|---|---|---|---|"]
         for p in d.parameters:
             choices = f" ({', '.join(p.choices)})" if p.choices else ""
             out.append(f"| `{p.name}` | {p.rich_type}{choices} | {_default_text(p)} | {p.description} | "
-                       f"{p.unit or '–'} | {MEASURES.get(p.measure, '–')} | {p.tooltip} |")
+                       f"{p.unit or '–'} | {MEASURES.get(p.measure, '–')} | "
+                       f"{f'{p.limits[0]:g} to {p.limits[1]:g}' if p.limits else '–'} | {p.tooltip} |")
         out.append("")
     return "\n".join(out)

@@ -25,12 +25,38 @@ ABSOLUTE = "absolute"  # a length in voxels of the grid
 RELATIVE = "relative"  # a fraction of the longest side of the model's bounding box
 
 
-def _p(default, label, help, unit="", choices=None, measure=""):
-    """A parameter: ``label`` is MeshLab's short name for it, ``help`` its description."""
+def _p(default, label, help, unit="", choices=None, measure="", limits=None):
+    """A parameter: ``label`` is MeshLab's short name for it, ``help`` its description, ``limits``
+    the closed range ``(low, high)`` of a number (checked by `check_limits`)."""
     meta = {"label": label, "help": help, "unit": unit, "measure": measure}
     if choices is not None:
         meta["choices"] = tuple(choices)
+    if limits is not None:
+        meta["limits"] = limits
     return field(default=default, metadata=meta)
+
+
+def check_limits(params):
+    """Every number field of a parameter dataclass is a finite number of its type within its
+    ``limits`` (None passes where the field allows it); the one check every entry point goes through.
+
+    Raises
+    ------
+    ParameterError
+        Naming the field, its range and the value.
+    """
+    for f in fields(params):
+        limits = f.metadata.get("limits")
+        value = getattr(params, f.name)
+        if limits is None or value is None:
+            continue
+        integral = "int" in str(f.type)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or (integral and not isinstance(value, int)):
+            raise ParameterError(f"{f.name} must be {'an integer' if integral else 'a number'}, got {value!r}")
+        low, high = limits
+        if not (math.isfinite(value) and low <= value <= high):
+            raise ParameterError(f"{f.name} must be {'an integer' if integral else 'a number'} in "
+                                 f"[{low:g}, {high:g}], got {value!r}")
 
 
 # What each preset sets when the field is left unset.
@@ -61,6 +87,7 @@ class DenoiseParams:
         "voxels along the longest side of the mesh's bounding box; unset: twice the longest side "
         "over the mesh's mean edge length, within 96-256 and lowered to fit in memory",
         "voxels",
+        limits=(16, 4096),
     )
     output_mesh: str = _p(
         "preset",
@@ -88,6 +115,7 @@ class DenoiseParams:
         "this padded box (default: max(8, t/2 + 2))",
         "voxels",
         measure=ABSOLUTE,
+        limits=(2, 4096),
     )
     threshold: float | None = _p(
         None,
@@ -98,6 +126,7 @@ class DenoiseParams:
         "(default: 0.1875 of the longest side; thesis: 18 voxels)",
         "voxels",
         measure=ABSOLUTE,
+        limits=(1e-6, 10000),
     )
     threshold_relative: float | None = _p(
         None,
@@ -123,6 +152,7 @@ class DenoiseParams:
     k: float = _p(
         0.9, "Derivative threshold k",
         "derivative threshold k: skeleton voxels with sigma_bar <= k are ligature (eq. 5.6)",
+        limits=(0, 100),
     )
     derivative_guard: float = _p(
         0.1,
@@ -131,6 +161,7 @@ class DenoiseParams:
         "is never treated as ligature",
         "voxels",
         measure=ABSOLUTE,
+        limits=(0, 100),
     )
     derivative_min_rho: float = _p(
         7.0,
@@ -141,6 +172,7 @@ class DenoiseParams:
         "take rho+ from any neighbour",
         "voxels",
         measure=ABSOLUTE,
+        limits=(0, 10000),
     )
     stages: str = _p(
         "preset",
@@ -165,6 +197,7 @@ class DenoiseParams:
     minify_radius: float = _p(
         3.0, "Minification radius r", "radius r of the implicit minification filter (§6.2.1)", "voxels",
         measure=ABSOLUTE,
+        limits=(0, 100),
     )
     importance: str = _p(
         "geodesic",
@@ -181,6 +214,7 @@ class DenoiseParams:
         "the default preset, max(2t, t+8) with the thesis')",
         "voxels",
         measure=ABSOLUTE,
+        limits=(1e-6, 20000),
     )
     skeleton: str = _p(
         "ie",
@@ -199,31 +233,20 @@ class DenoiseParams:
         if self.preset not in PRESETS:
             raise ParameterError(f"preset must be one of {', '.join(PRESETS)}, got {self.preset!r}")
         self._apply_preset()
-        if self.resolution is not None and (
-                isinstance(self.resolution, bool) or not isinstance(self.resolution, int) or self.resolution < 16):
-            raise ParameterError(f"resolution must be an integer >= 16, got {self.resolution!r}")
+        check_limits(self)
         if not isinstance(self.fine_pass, bool):
             raise ParameterError(f"fine_pass must be true or false, got {self.fine_pass!r}")
-        if self.padding is not None and self.padding < 2:
-            raise ParameterError(f"padding must be >= 2 voxels, got {self.padding}")
         for f in fields(self):
             choices = f.metadata.get("choices")
             if choices and getattr(self, f.name) not in choices:
                 raise ParameterError(
                     f"{f.name} must be one of {', '.join(choices)}, got {getattr(self, f.name)!r}"
                 )
-        if self.threshold is not None and not (math.isfinite(self.threshold) and self.threshold > 0):
-            raise ParameterError(f"threshold must be a finite number > 0, got {self.threshold}")
-        if not 0 < self.thin_radius_relative <= 1:
+        if not (math.isfinite(self.thin_radius_relative) and 0 < self.thin_radius_relative <= 1):
             raise ParameterError(f"thin_radius_relative must be in (0, 1], got {self.thin_radius_relative}")
-        if self.threshold_relative is not None and not 0 < self.threshold_relative < 1:
+        if self.threshold_relative is not None and not (
+                math.isfinite(self.threshold_relative) and 0 < self.threshold_relative < 1):
             raise ParameterError(f"threshold_relative must be in (0, 1), got {self.threshold_relative}")
-        for name in ("minify_radius", "derivative_min_rho"):
-            value = getattr(self, name)
-            if not math.isfinite(value) or value < 0:
-                raise ParameterError(f"{name} must be a finite number >= 0, got {value}")
-        if self.geodesic_cap is not None and not (math.isfinite(self.geodesic_cap) and self.geodesic_cap > 0):
-            raise ParameterError(f"geodesic_cap must be a finite number > 0, got {self.geodesic_cap}")
         if (self.geodesic_cap is not None and self.resolution is not None
                 and self.geodesic_cap <= self.threshold_voxels):
             raise ParameterError("geodesic_cap must be larger than the threshold t")
@@ -282,27 +305,26 @@ class NoiseParams:
     """Parameters of the thesis' noise model (§7.2)."""
 
     p: float = _p(
-        0.014, "Incidence p", "incidence: probability that a surface voxel starts a protrusion", "probability"
+        0.014, "Incidence p", "incidence: probability that a surface voxel starts a protrusion", "probability",
+        limits=(0, 1),
     )
     r: float = _p(2.1, "Kernel radius r", "radius of the spherical noise kernel (eq. 7.13)", "voxels",
-                   measure=ABSOLUTE)
+                  measure=ABSOLUTE, limits=(0.01, 1000))
     h: int = _p(3, "Height h", "height of the protrusion along the normal (eq. 7.14)", "voxels",
-                measure=ABSOLUTE)
+                measure=ABSOLUTE, limits=(0, 1000))
     l: int = _p(
         6, "Walk length l", "length of the random surface walk; 1 gives isolated bumps (eq. 7.15-7.16)",
-        "steps",
+        "steps", limits=(1, 100_000),
     )
-    seed: int = _p(0, "Random seed", "random seed; equal seeds give equal noise")
+    seed: int = _p(0, "Random seed", "random seed; equal seeds give equal noise", limits=(0, 2**32 - 1))
     dents: bool = _p(False, "Dents", "also carve dents inward, at independently drawn sites")
-    resolution: int = _p(160, "Resolution", "voxels along the longest side of the bounding box", "voxels")
+    resolution: int = _p(160, "Resolution", "voxels along the longest side of the bounding box", "voxels",
+                         limits=(16, 4096))
 
     def __post_init__(self):
-        if not 0 <= self.p <= 1:
-            raise ParameterError(f"p must be in [0, 1], got {self.p}")
-        if self.r <= 0 or self.h < 0 or self.l < 1:
-            raise ParameterError("noise needs r > 0, h >= 0 and l >= 1")
-        if not isinstance(self.resolution, int) or self.resolution < 16:
-            raise ParameterError(f"resolution must be an integer >= 16, got {self.resolution!r}")
+        check_limits(self)
+        if not isinstance(self.dents, bool):
+            raise ParameterError(f"dents must be true or false, got {self.dents!r}")
 
     @property
     def padding_voxels(self):

@@ -199,7 +199,7 @@ DENOISE = "Skeleton Saliency Denoise"
      r"bad.mlx:4: filter 'Skeleton Saliency Denoise', parameter 'stages': stages must be one of preset, both, "
      r"foreground, background, got 'all'"),
     (one_filter(DENOISE, 'name="resolution" value="8" type="RichInt"'),
-     r"bad.mlx:3: filter 'Skeleton Saliency Denoise': resolution must be an integer >= 16, got 8"),
+     r"bad.mlx:3: filter 'Skeleton Saliency Denoise': resolution must be an integer in \[16, 4096\], got 8"),
     (one_filter("Add Skeleton Noise", 'name="l" value="2" type="RichInt"',
                 'name="l" value="3" type="RichInt"'),
      r"bad.mlx:5: filter 'Add Skeleton Noise', parameter 'l': given twice"),
