@@ -144,6 +144,9 @@ def _denoise(args):
             raise InputError(f"--close contradicts --output-mesh {args.output_mesh}")
         args.output_mesh = "closed"
     params = _params(SKELETON_SALIENCY_DENOISE, args)
+    io.check_output(args.output, [args.input], io.MESH_FORMATS)
+    if args.save_skeleton:
+        io.check_output(args.save_skeleton, {args.input: "input", args.output: "output"}, ("ply",))
     mesh = io.load_mesh(args.input)
     progress = Progress(enabled=args.progress)
     out, result, grid = pipeline.denoise_mesh_detailed(mesh, params, progress)
@@ -153,7 +156,7 @@ def _denoise(args):
     protect = [args.input]
     io.save_mesh(out, args.output, protect=protect)
     if args.save_skeleton:
-        _save_skeleton(args.save_skeleton, result, grid, protect + [args.output])
+        _save_skeleton(args.save_skeleton, result, grid, {args.input: "input", args.output: "output"})
     if args.progress is None and not progress.enabled:
         for line in progress.notes:
             print(f"skelfilter: {line}", file=sys.stderr)
@@ -182,6 +185,7 @@ def _save_skeleton(path, result, grid, protect):
 
 def _noise(args):
     params = _params(ADD_SKELETON_NOISE, args)
+    io.check_output(args.output, [args.input], io.MESH_FORMATS)
     mesh = io.load_mesh(args.input)
     progress = Progress(enabled=args.progress)
     noisy, _, _ = pipeline.noisy_mesh(mesh, params, progress)
@@ -190,11 +194,12 @@ def _noise(args):
 
 def _run_script(args):
     steps = meshlab.read_script(args.script)
+    io.check_output(args.output, {args.input: "input", args.script: "script"}, io.MESH_FORMATS)
     mesh = io.load_mesh(args.input)
     progress = Progress(enabled=args.progress)
     layers = meshlab.run_steps(steps, mesh, args.timeout, progress)
     out = io.validate_mesh(layers.current_mesh, f"{args.script}: the current layer at the end")
-    io.save_mesh(out, args.output, protect=[args.input, args.script])
+    io.save_mesh(out, args.output, protect={args.input: "input", args.script: "script"})
     if progress.enabled:
         print(f"wrote {args.output}: layer {layers.current} of {len(layers.meshes)}, "
               f"{len(out.vertices)} vertices, {len(out.faces)} faces", file=sys.stderr)

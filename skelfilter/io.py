@@ -52,18 +52,40 @@ def _same_file(a, b):
     return os.path.exists(b) and os.path.realpath(a) == os.path.realpath(b)
 
 
+def check_output(path, protect=(), kinds=None):
+    """Refuse an output path before anything is computed.
+
+    ``protect`` maps what ``path`` must not be to its name in the message (``{input_path: "input"}``;
+    a list means inputs); ``kinds`` lists the allowed extensions (default: any).
+
+    Raises
+    ------
+    InputError
+        A wrong extension, a missing folder, a folder as the path, or one of the protected files.
+    """
+    path = str(path)
+    names = protect if isinstance(protect, dict) else {p: "input" for p in protect}
+    for other, name in names.items():
+        if _same_file(str(other), path) or os.path.abspath(str(other)) == os.path.abspath(path):
+            raise InputError(f"{path}: refusing to overwrite the {name} file")
+    if kinds is not None:
+        ext = os.path.splitext(path)[1].lower().lstrip(".")
+        if ext not in kinds:
+            raise InputError(f"{path}: unsupported format {ext!r} (use {', '.join(kinds)})")
+    if os.path.isdir(path):
+        raise InputError(f"{path}: is a folder")
+    if not os.path.isdir(os.path.dirname(os.path.abspath(path))):
+        raise InputError(f"{path}: output folder does not exist")
+
+
 def atomic_write(path, write, protect=()):
     """Call ``write(tmp_path)`` then move the result onto ``path`` in one step.
 
-    ``protect`` lists files (the inputs) that ``path`` must not be.
+    ``protect``: as in `check_output`.
     """
     path = str(path)
-    for p in protect:
-        if _same_file(p, path):
-            raise InputError(f"{path}: refusing to overwrite the input file")
+    check_output(path, protect)
     directory = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(directory):
-        raise InputError(f"{path}: output folder does not exist")
     fd, tmp = tempfile.mkstemp(dir=directory, prefix=".skelfilter-", suffix=os.path.splitext(path)[1])
     os.close(fd)
     try:

@@ -13,7 +13,7 @@ SCRIPT = '<!DOCTYPE FilterScript>\n<FilterScript>\n <filter name="Taubin Smooth"
 
 # (arguments, a piece of the expected message); {in}, {out}, {dir}, {file}, {script} are filled in
 CASES = [
-    (["denoise", "{in}", "{dir}"], "unsupported mesh format"),
+    (["denoise", "{in}", "{dir}"], "unsupported format ''"),
     (["denoise", "{in}", "{out}", "--resolution", str(2**63)], "resolution must be an integer in [16, 4096]"),
     (["denoise", "{in}", "{out}", "--resolution", "8"], "resolution must be an integer in [16, 4096]"),
     (["denoise", "{in}", "{out}", "--threshold", "1e30"], "threshold must be a number in"),
@@ -29,7 +29,7 @@ CASES = [
     (["denoise", "{in}", "{out}", "--output-mesh", "cube"], "invalid choice"),
     (["denoise", "{in}", "{out}", "--close", "--output-mesh", "input"], "--close contradicts"),
     (["denoise", "{in}"], "the following arguments are required"),
-    (["denoise", "{in}", "{out}.xyz"], "unsupported mesh format 'xyz'"),
+    (["denoise", "{in}", "{out}.xyz"], "unsupported format 'xyz'"),
     (["denoise", "{in}", "{in}"], "refusing to overwrite the input file"),
     (["noise", "{in}", "{out}", "--r", "nan"], "r must be a number in"),
     (["noise", "{in}", "{out}", "--r", "inf"], "r must be a number in"),
@@ -74,3 +74,19 @@ def test_bad_input_gives_one_line_and_exit_2(files, tmp_path, args, message):
     assert message in lines[0]
     assert {p: digest(files / p) for p in before} == before
     assert os.listdir(tmp_path) == [] and os.listdir(files / "adir") == []
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--save-skeleton", "{out}"], "refusing to overwrite the output file"),
+    (["--save-skeleton", "{in}"], "refusing to overwrite the input file"),
+    (["--save-skeleton", "{tmp}/missing/s.ply"], "output folder does not exist"),
+    (["--save-skeleton", "{tmp}/s.obj"], "unsupported format 'obj' (use ply)"),
+])
+def test_output_paths_are_checked_before_computing(files, tmp_path, extra, message):
+    names = {"in": str(files / "cube.ply"), "out": str(tmp_path / "out.ply"), "tmp": str(tmp_path)}
+    argv = ["denoise", names["in"], names["out"], "--output-mesh", "closed", "--resolution", "32"]
+    r = subprocess.run([sys.executable, "-m", "skelfilter.cli", *argv, *[a.format(**names) for a in extra]],
+                       capture_output=True, text=True, timeout=300)
+    lines = [line for line in r.stderr.splitlines() if line.strip()]
+    assert r.returncode == 2 and len(lines) == 1 and message in lines[0], r.stderr
+    assert os.listdir(tmp_path) == []
