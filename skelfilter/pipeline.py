@@ -340,7 +340,10 @@ def _kept_mesh(mesh, voxels, params, grid, progress):
                 max_move=params.threshold_voxels / 2)
     if params.fine_pass:
         with progress.step("fine pass"):
-            smoothed, reference = normal_filtering.fine_pass(vertices, faces)
+            # The rim of an open surface stays where it was (measured on Nicolo0.2: both scores
+            # lower than with the rim smoothed, and the boundary exactly the input's).
+            rim = vertex_projection.boundary_vertices(faces, len(vertices))
+            smoothed, reference = normal_filtering.fine_pass(vertices, faces, movable=~rim)
             # Faces keep the filtered normals' orientation, or the denoised surface's where
             # vertices moved onto it.
             near_moved = moved[faces].any(axis=1)
