@@ -30,9 +30,10 @@ def _die_with_parent():
     """In the child, before it runs: have Linux kill it when its parent dies, however the parent dies
     (a SIGKILL included), so no child is ever left running alone."""
     try:
-        ctypes.CDLL("libc.so.6", use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
-    except (OSError, AttributeError):  # not Linux/glibc: the parent's cleanup still kills the child
-        pass
+        libc = ctypes.CDLL("libc.so.6", use_errno=True)
+    except OSError:  # not Linux/glibc: the parent's cleanup still kills the child
+        return
+    libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
 
 
 def run_child(module, function, workdir, timeout, what):

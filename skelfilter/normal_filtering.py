@@ -144,9 +144,14 @@ def fit_vertices(vertices, faces, normals, iterations, movable=None):
     return vertices
 
 
+def face_edges(faces):
+    """The three edges of every triangle, (3m, 2), each as its faces list them."""
+    return np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+
+
 def vertex_adjacency(faces, n_vertices):
     """Row-normalized vertex adjacency (uniform Laplacian weights) as a sparse matrix."""
-    edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    edges = face_edges(faces)
     rows = np.concatenate([edges[:, 0], edges[:, 1]])
     cols = np.concatenate([edges[:, 1], edges[:, 0]])
     adjacency = sparse.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n_vertices, n_vertices))

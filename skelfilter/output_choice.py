@@ -52,7 +52,7 @@ def surface_voxels(volume):
 def is_closed(faces):
     """Whether every edge of the triangles ``faces`` is shared by an even number of them (no rim)."""
     faces = np.asarray(faces, dtype=np.int64)
-    edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    edges = np.sort(normal_filtering.face_edges(faces), axis=1)
     codes = edges[:, 0] * (int(faces.max()) + 1) + edges[:, 1]
     return bool(np.all(np.unique(codes, return_counts=True)[1] % 2 == 0))
 

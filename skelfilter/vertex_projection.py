@@ -14,7 +14,7 @@ import numpy as np
 from scipy import ndimage
 
 from .neighbourhood import bounding_box
-from .normal_filtering import vertex_adjacency
+from .normal_filtering import face_edges, vertex_adjacency
 
 # A face is degenerate when its area falls under this share of the mesh's mean face area.
 DEGENERATE_AREA = 1e-4
@@ -118,7 +118,7 @@ def folded_faces(vertices, faces, reference_normals):
 
 def boundary_vertices(faces, n_vertices):
     """Vertices on an edge used by a single face (the rim of an open surface or of a hole)."""
-    edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    edges = np.sort(face_edges(faces), axis=1)
     unique, count = np.unique(edges, axis=0, return_counts=True)
     out = np.zeros(n_vertices, dtype=bool)
     out[unique[count == 1].reshape(-1)] = True
