@@ -271,7 +271,7 @@ def main(argv=None):
         return 2
     except MemoryError:
         print("skelfilter: error: out of memory; lower --resolution", file=sys.stderr)
-        return 3
+        return 2
     except Terminated:
         print("skelfilter: terminated", file=sys.stderr)
         return 143

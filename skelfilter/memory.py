@@ -2,6 +2,7 @@
 
 import ctypes
 import os
+import resource
 
 from .errors import ResourceError
 
@@ -17,17 +18,84 @@ _MMAP_THRESHOLD = 128 * 1024
 # benchmark), less on larger grids; rounded up.
 BYTES_PER_VOXEL = 36
 
+_CGROUP_ROOT = "/sys/fs/cgroup"
+# cgroup v1 writes "no limit" as a page-rounded 2**63 - 1.
+_UNLIMITED = 2**62
+
 
 def available_bytes():
-    """Memory available to a new allocation (Linux MemAvailable; total RAM elsewhere)."""
+    """Memory a new allocation can get: the least of the system's available RAM, what the
+    process limits (``ulimit -v``, ``ulimit -d``) leave and what the memory cgroup leaves."""
+    return min(_system_available(), _rlimit_left(), _cgroup_left())
+
+
+def _system_available():
+    """Linux MemAvailable; total RAM elsewhere."""
+    value = _proc_field("/proc/meminfo", "MemAvailable:")
+    if value is not None:
+        return value
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+
+
+def _proc_field(path, name):
+    """A ``name: N kB`` line of a /proc file, in bytes (None when absent)."""
     try:
-        with open("/proc/meminfo") as f:
+        with open(path) as f:
             for line in f:
-                if line.startswith("MemAvailable:"):
+                if line.startswith(name):
                     return int(line.split()[1]) * 1024
     except OSError:
         pass
-    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    return None
+
+
+def _rlimit_left():
+    """What RLIMIT_AS and RLIMIT_DATA leave beyond the process' current virtual and data size."""
+    left = _UNLIMITED
+    for limit, used_field in ((resource.RLIMIT_AS, "VmSize:"), (resource.RLIMIT_DATA, "VmData:")):
+        soft = resource.getrlimit(limit)[0]
+        if soft != resource.RLIM_INFINITY:
+            left = min(left, soft - (_proc_field("/proc/self/status", used_field) or 0))
+    return max(left, 0)
+
+
+def _read_number(path):
+    try:
+        with open(path) as f:
+            text = f.read().strip()
+    except OSError:
+        return None
+    return int(text) if text.isdigit() else None
+
+
+def _reclaimable(stat_path, field):
+    """Page cache the kernel drops before failing an allocation (``inactive_file``)."""
+    try:
+        with open(stat_path) as f:
+            for line in f:
+                name, _, value = line.partition(" ")
+                if name == field:
+                    return int(value)
+    except (OSError, ValueError):
+        pass
+    return 0
+
+
+def _cgroup_left():
+    """What the memory cgroup's limit leaves (v2 ``memory.max``, v1 ``memory.limit_in_bytes``),
+    from the cgroup mount as seen inside the process' namespace."""
+    left = _UNLIMITED
+    for folder, limit, usage, stat, reclaimable in (
+            (_CGROUP_ROOT, "memory.max", "memory.current", "memory.stat", "inactive_file"),
+            (os.path.join(_CGROUP_ROOT, "memory"), "memory.limit_in_bytes", "memory.usage_in_bytes",
+             "memory.stat", "total_inactive_file")):
+        cap = _read_number(os.path.join(folder, limit))
+        used = _read_number(os.path.join(folder, usage))
+        if cap is None or used is None or cap >= _UNLIMITED:
+            continue
+        used -= _reclaimable(os.path.join(folder, stat), reclaimable)
+        left = min(left, cap - max(used, 0))
+    return max(left, 0)
 
 
 def check_grid_fits(shape, available=None):

@@ -3,11 +3,15 @@
 A voxel is inside when its centre is inside the mesh, as told by ray-parity
 votes along the three axes: one ray per grid line, whose crossings with the
 triangles are found by rasterizing each triangle's projection onto the
-lattice of rays; the voxels between the 1st and 2nd, 3rd and 4th, ...
-crossings are inside for that axis. A ray with an odd number of crossings
-went through a hole and does not vote. Parity needs only the surface's
-geometry, so a triangle soup (duplicated seam vertices, no shared topology,
-any winding) voxelizes like the merged mesh.
+lattice of rays. A closed, consistently oriented mesh is voxelized by its
+winding number (the nonzero rule): the voxels where the signed count of the
+crossings before them is not zero are inside, so parts that overlap or pass
+through each other give their union. Any other mesh is voxelized by parity:
+the voxels between the 1st and 2nd, 3rd and 4th, ... crossings are inside
+for that axis, and a ray with an odd number of crossings went through a hole
+and does not vote. Parity needs only the surface's geometry, so a triangle
+soup (duplicated seam vertices, no shared topology, any winding) voxelizes
+like the merged mesh.
 """
 
 from dataclasses import dataclass
@@ -231,7 +235,28 @@ def _triangles(mesh):
     return vertices, faces
 
 
+def is_consistently_oriented(vertices, faces):
+    """True when the mesh, its vertices merged where they coincide, is closed and consistently
+    oriented: every directed edge is used once and its reverse once.
+
+    Such a mesh has a winding number everywhere, which voxelizes overlapping parts as their union.
+    """
+    _, index = np.unique(vertices, axis=0, return_inverse=True)
+    f = index.reshape(-1)[faces]
+    f = f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 2] != f[:, 0])]
+    if len(f) == 0:
+        return False
+    n = int(f.max()) + 1
+    tail, head = f.reshape(-1), np.roll(f, -1, axis=1).reshape(-1)
+    edges = np.sort(tail * n + head)
+    if (edges[1:] == edges[:-1]).any():
+        return False
+    reverse = np.sort(head * n + tail)
+    return bool(np.array_equal(edges, reverse))
+
+
 def _occupancy(vertices, faces, grid):
+    winding = is_consistently_oriented(vertices, faces)
     # Per vertex, not per triangle corner: the same values in a third of the memory.
     local = grid.to_index(vertices) - _NUDGE
     votes = np.zeros(grid.shape, dtype=np.uint8)
@@ -243,13 +268,17 @@ def _occupancy(vertices, faces, grid):
         # Counting sort of the crossings by ray: count them, then write each
         # one at its ray's next free slot.
         counts = np.zeros(nu * nv, dtype=np.int64)
-        _scan(us, vs, ws, faces, nu, nv, counts, np.empty(0))
+        # (u, v, w) is right-handed for the x and z rays, left-handed for the y rays.
+        handedness = -1 if axis == 1 else 1
+        _scan(us, vs, ws, faces, nu, nv, counts, np.empty(0), np.empty(0, np.int8), handedness)
         start = np.zeros(nu * nv + 1, dtype=np.int64)
         np.cumsum(counts, out=start[1:])
         hits = np.empty(start[-1])
-        _scan(us, vs, ws, faces, nu, nv, start[:-1].copy(), hits)
+        signs = np.empty(start[-1], dtype=np.int8)
+        _scan(us, vs, ws, faces, nu, nv, start[:-1].copy(), hits, signs, handedness)
         ok = np.ones(nu * nv, dtype=np.bool_)
-        _vote(hits, start, np.moveaxis(votes, axis, -1), np.uint8(1 << axis), ok)
+        _vote(hits, signs, start, np.moveaxis(votes, axis, -1), np.uint8(1 << axis), ok, winding)
+        del signs
         rays.append((hits, start))
         valid.append(ok.reshape(nu, nv))
     _decide(votes, *valid)
@@ -284,7 +313,7 @@ def _orient(ax, ay, bx, by, px, py):
 
 
 @njit(cache=True)
-def _scan(us, vs, ws, faces, nu, nv, slot, hits):
+def _scan(us, vs, ws, faces, nu, nv, slot, hits, signs, handedness):
     """Rasterize every triangle's projection onto the lattice of rays.
 
     ``us``, ``vs``, ``ws`` are the vertices' coordinates across (u, v) and
@@ -292,7 +321,9 @@ def _scan(us, vs, ws, faces, nu, nv, slot, hits):
 
     Ray ``(p, q)`` runs at ``(u, v) = (p, q)``. For each crossing,
     ``slot[ray]`` is incremented; when ``hits`` is not empty the crossing's
-    coordinate along the ray is first stored at ``hits[slot[ray]]``.
+    coordinate along the ray is first stored at ``hits[slot[ray]]``, and at
+    ``signs[slot[ray]]`` +1 where the triangle faces along the ray, -1 where
+    it faces against it (``handedness`` -1 when (u, v, w) is left-handed).
     """
     fill = hits.size > 0
     for f in range(faces.shape[0]):
@@ -312,6 +343,7 @@ def _scan(us, vs, ws, faces, nu, nv, slot, hits):
         ta = sa == (1 if bx != cx else -1)
         tb = sb == (1 if cx != ax else -1)
         tc = sc == (1 if ax != bx else -1)
+        facing = handedness if (bx - ax) * (cy - ay) - (by - ay) * (cx - ax) > 0 else -handedness
         p0 = _clip(np.ceil(min(ax, bx, cx)), nu)
         p1 = _clip(np.floor(max(ax, bx, cx)) + 1, nu)
         q0 = _clip(np.ceil(min(ay, by, cy)), nv)
@@ -328,14 +360,17 @@ def _scan(us, vs, ws, faces, nu, nv, slot, hits):
                 ray = p * nv + q
                 if fill:
                     hits[slot[ray]] = (wa * ws[i0] + wb * ws[i1] + wc * ws[i2]) / (wa + wb + wc)
+                    signs[slot[ray]] = facing
                 slot[ray] += 1
 
 
 @njit(cache=True, parallel=True)
-def _vote(hits, start, votes, bit, valid):
-    """Sort each ray's crossings; set ``bit`` in ``votes[p, q, k]`` between pairs of them.
+def _vote(hits, signs, start, votes, bit, valid, winding):
+    """Sort each ray's crossings; set ``bit`` in ``votes[p, q, k]`` where the ray is inside.
 
-    Rays with an odd number of crossings are marked invalid and vote nothing.
+    By parity, inside is between pairs of crossings, and rays with an odd number of crossings
+    are marked invalid and vote nothing. By ``winding``, inside is where the running sum of the
+    crossings' ``signs`` is not zero, and rays whose sum does not come back to zero are invalid.
     """
     nu, nv, n = votes.shape
     for p in prange(nu):
@@ -343,12 +378,28 @@ def _vote(hits, start, votes, bit, valid):
             ray = p * nv + q
             a, b = start[ray], start[ray + 1]
             for i in range(a + 1, b):  # insertion sort: a ray meets few triangles
-                t = hits[i]
+                t, s = hits[i], signs[i]
                 j = i - 1
                 while j >= a and hits[j] > t:
                     hits[j + 1] = hits[j]
+                    signs[j + 1] = signs[j]
                     j -= 1
                 hits[j + 1] = t
+                signs[j + 1] = s
+            if winding:
+                total = 0
+                for i in range(a, b):
+                    total += signs[i]
+                if total != 0:
+                    valid[ray] = False
+                    continue
+                number = 0
+                for i in range(a, b - 1):
+                    number += signs[i]
+                    if number != 0:
+                        for k in range(_clip(np.floor(hits[i]) + 1, n), _clip(np.ceil(hits[i + 1]), n)):
+                            votes[p, q, k] |= bit
+                continue
             if (b - a) % 2:
                 valid[ray] = False
                 continue

@@ -215,11 +215,49 @@ def test_winding_and_vertex_sharing_do_not_matter():
 def test_void_of_a_closed_mesh_stays_empty():
     outer = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
     inner = trimesh.creation.icosphere(subdivisions=3, radius=0.5)
+    inner.invert()  # a void's wall faces into the void
     shell = trimesh.util.concatenate([outer, inner])
+    assert voxelize_module.is_consistently_oriented(shell.vertices, shell.faces)
     volume, grid = voxelize(shell, resolution=64)
     void = ndi.binary_fill_holes(volume) & ~volume
-    assert void.sum() * grid.pitch**3 == pytest.approx(inner.volume, rel=0.02)
-    assert volume.sum() * grid.pitch**3 == pytest.approx(outer.volume - inner.volume, rel=0.01)
+    assert void.sum() * grid.pitch**3 == pytest.approx(-inner.volume, rel=0.02)
+    assert volume.sum() * grid.pitch**3 == pytest.approx(outer.volume + inner.volume, rel=0.01)
+
+
+def _union(*meshes):
+    import manifold3d
+    solid = sum((manifold3d.Manifold(manifold3d.Mesh(m.vertices.astype(np.float32), m.faces.astype(np.uint32)))
+                 for m in meshes[1:]),
+                manifold3d.Manifold(manifold3d.Mesh(meshes[0].vertices.astype(np.float32),
+                                                    meshes[0].faces.astype(np.uint32))))
+    out = solid.to_mesh()
+    return trimesh.Trimesh(out.vert_properties[:, :3], out.tri_verts, process=False)
+
+
+def test_overlapping_parts_give_their_union():
+    a = trimesh.creation.box((2.0, 2.0, 2.0))
+    b = trimesh.creation.box((2.0, 2.0, 2.0))
+    b.apply_translation((1.0, 0.7, 0.5))
+    c = trimesh.creation.icosphere(subdivisions=3, radius=0.8)
+    c.apply_translation((-0.8, -0.5, 0.9))
+    overlapping = trimesh.util.concatenate([a, b, c])
+    grid = grid_for_bounds(overlapping.bounds, 64, 2)
+    union = voxelize_on_grid(_union(a, b, c), grid)
+    assert np.array_equal(voxelize_on_grid(overlapping, grid), union)
+    overlapping.invert()  # inward-facing throughout: the winding number is -1, -2, ... and still nonzero
+    assert np.array_equal(voxelize_on_grid(overlapping, grid), union)
+    assert n_components(union) == 1 and is_closed(union)
+
+
+def test_orientation_test_needs_a_closed_consistent_mesh():
+    box = trimesh.creation.box()
+    assert voxelize_module.is_consistently_oriented(box.vertices, box.faces)
+    flipped = box.faces.copy()
+    flipped[0] = flipped[0, ::-1]
+    assert not voxelize_module.is_consistently_oriented(box.vertices, flipped)
+    assert not voxelize_module.is_consistently_oriented(box.vertices, box.faces[1:])
+    corners = box.triangles.reshape(-1, 3)  # unmerged: coinciding vertices count as one
+    assert voxelize_module.is_consistently_oriented(corners, np.arange(len(corners)).reshape(-1, 3))
 
 
 def test_open_tube_and_open_box_fill_like_the_closed_ones():
