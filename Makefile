@@ -18,6 +18,7 @@ setup:
 		$$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq $$missing; \
 	fi
 	$(PIP) install -q -e '.[test]'
+	$(PYTHON) -m skelfilter.kernels
 
 demo: setup
 	$(PYTHON) -m skelfilter.demo --out demo-output

@@ -222,6 +222,12 @@ def load_config(path=None, **overrides):
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise InputError(f"{path}: not valid TOML ({exc})") from None
     _check_keys(path, "top level", data, ("run", "case", "method", "sweep"))
+    for key, kind in (("run", "a table [run]"), ("sweep", "a table [sweep]"), ("case", "a list of [[case]] tables"),
+                      ("method", "a list of [[method]] tables")):
+        value = data.get(key)
+        is_list = isinstance(value, list) and all(isinstance(v, dict) for v in value)
+        if value is not None and not (is_list if key in ("case", "method") else isinstance(value, dict)):
+            _fail(path, key, f"must be {kind}, got {type(value).__name__} {value!r}")
     run = _run_table(path, {**data.get("run", {}), **{k: v for k, v in overrides.items() if v is not None}})
     cases = tuple(_case(path, i, t, run) for i, t in enumerate(data.get("case", [])))
     methods = tuple(_method(path, i, t, run) for i, t in enumerate(data.get("method", [])))

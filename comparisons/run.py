@@ -11,8 +11,10 @@ import csv
 import json
 import os
 import platform
+import shutil
 import subprocess
 import sys
+import tempfile
 import time
 from concurrent.futures import ThreadPoolExecutor
 
@@ -208,10 +210,28 @@ def run_compare(config, out_dir, say=None):
     """Run the whole comparison of ``config`` into ``out_dir``; returns the results dict.
 
     Writes ``results.json``, ``metrics.csv``, every result mesh (PLY), the pictures, ``report.html``
-    and ``report.md``.
+    and ``report.md``. They are made in a hidden folder beside ``out_dir`` and moved into it at the
+    end (replacing files of the same names), so a failed or interrupted run leaves nothing behind.
     """
     say = say or Reporter(enabled=False)
-    os.makedirs(out_dir, exist_ok=True)
+    parent = os.path.dirname(os.path.abspath(out_dir))
+    os.makedirs(parent, exist_ok=True)
+    work = tempfile.mkdtemp(dir=parent, prefix=f".{os.path.basename(os.path.abspath(out_dir))}-")
+    try:
+        results = _run_compare(config, work, say)
+        os.makedirs(out_dir, exist_ok=True)
+        for name in os.listdir(work):
+            target = os.path.join(out_dir, name)
+            if os.path.isdir(target) and not os.path.islink(target):
+                shutil.rmtree(target)
+            os.replace(os.path.join(work, name), target)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    say(f"wrote {os.path.join(out_dir, 'report.html')} and report.md ({results['wall_seconds']:.0f} s)")
+    return results
+
+
+def _run_compare(config, out_dir, say):
     start = time.perf_counter()
     results = {"config": as_dict(config), "versions": versions(), "cases": []}
     sweep_noise = None
@@ -229,5 +249,4 @@ def run_compare(config, out_dir, say=None):
     _relative(results, out_dir)
     _write_tables(results, out_dir)
     report.write_report(results, out_dir, COLOUR_RANGE)
-    say(f"wrote {os.path.join(out_dir, 'report.html')} and report.md ({results['wall_seconds']:.0f} s)")
     return results

@@ -36,10 +36,17 @@ def _die_with_parent():
     libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
 
 
+def _name(what):
+    return what() if callable(what) else what
+
+
 def run_child(module, function, workdir, timeout, what):
     """Call ``module.function(workdir)`` in a fresh Python process and wait for it.
 
     The child imports this checkout's packages first (its parent folder leads ``PYTHONPATH``).
+
+    ``what`` names what ran in the messages: a string, or a function giving it after a failure
+    (it may read what the child left in ``workdir``).
 
     Returns
     -------
@@ -59,8 +66,8 @@ def run_child(module, function, workdir, timeout, what):
         proc = subprocess.run(cmd, env=env, stdin=subprocess.DEVNULL, capture_output=True, timeout=timeout,
                               preexec_fn=_die_with_parent)
     except subprocess.TimeoutExpired:
-        raise SkelfilterError(f"{what} did not finish within {timeout:g} s; the child process was killed") \
-            from None
+        raise SkelfilterError(f"{_name(what)} did not finish within {timeout:g} s; the child process was "
+                              "killed") from None
     if proc.returncode < 0:
-        raise SkelfilterError(f"{what} crashed: {signal_text(-proc.returncode)}")
+        raise SkelfilterError(f"{_name(what)} crashed: {signal_text(-proc.returncode)}")
     return proc

@@ -6,10 +6,12 @@ itself read off the parameter dataclasses in :mod:`skelfilter.params`.
 """
 
 import argparse
+import logging
 import math
 import os
 import signal
 import sys
+import warnings
 
 # Libraries start native threads when they load (OpenBLAS, numba): started with SIGINT and SIGTERM
 # blocked, they never receive them (see skelfilter.signals).
@@ -148,6 +150,7 @@ def _denoise(args):
     if args.save_skeleton:
         io.check_output(args.save_skeleton, {args.input: "input", args.output: "output"}, ("ply",))
     mesh = io.load_mesh(args.input)
+    io.check_precision(mesh, args.output)
     progress = Progress(enabled=args.progress)
     out, result, grid = pipeline.denoise_mesh_detailed(mesh, params, progress)
     if args.save_skeleton and not result.stages:
@@ -187,6 +190,7 @@ def _noise(args):
     params = _params(ADD_SKELETON_NOISE, args)
     io.check_output(args.output, [args.input], io.MESH_FORMATS)
     mesh = io.load_mesh(args.input)
+    io.check_precision(mesh, args.output)
     progress = Progress(enabled=args.progress)
     noisy, _, _ = pipeline.noisy_mesh(mesh, params, progress)
     io.save_mesh(noisy, args.output, protect=[args.input])
@@ -259,8 +263,21 @@ def _terminate(signum, frame):
     raise Terminated()
 
 
+def _route_library_messages(quiet):
+    """Library warnings and log records become one ``skelfilter: warning: …`` line each, or nothing
+    under ``--quiet``."""
+    logging.basicConfig(level=logging.CRITICAL + 1 if quiet else logging.WARNING,
+                        format="skelfilter: warning: %(message)s", force=True)
+    if quiet:
+        warnings.simplefilter("ignore")
+        return
+    warnings.showwarning = lambda message, category, *rest: print(
+        f"skelfilter: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+
 def main(argv=None):
     args = build_parser().parse_args(argv)
+    _route_library_messages(getattr(args, "progress", None) is False)
     previous = signal.signal(signal.SIGTERM, _terminate)
     try:
         signals.start_workers_shielded()

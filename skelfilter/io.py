@@ -1,6 +1,7 @@
 """Mesh files in and out (any format trimesh reads/writes), validated and written atomically."""
 
 import os
+import re
 import tempfile
 
 import numpy as np
@@ -24,17 +25,50 @@ def load_mesh(path):
     Raises
     ------
     InputError
-        Missing or unreadable file, no triangles, non-finite coordinates.
+        Missing, unreadable or malformed file, no triangles, non-finite coordinates.
     """
     path = str(path)
     ext = _extension(path)
+    if os.path.isdir(path):
+        raise InputError(f"{path}: is a folder, not a mesh file")
     if not os.path.isfile(path):
         raise InputError(f"{path}: no such file")
+    if os.path.getsize(path) == 0:
+        raise InputError(f"{path}: the file is empty")
     try:
         mesh = trimesh.load(path, file_type=ext, force="mesh", process=False)
     except Exception as exc:  # trimesh raises many kinds on corrupt files
-        raise InputError(f"{path}: cannot read mesh ({type(exc).__name__}: {exc})") from None
+        raise InputError(f"{path}: malformed {ext.upper()} file ({exc})") from None
+    problem = _malformed(path, ext, mesh)
+    if problem:
+        raise InputError(f"{path}: malformed {ext.upper()} file ({problem})")
     return validate_mesh(mesh, path)
+
+
+def _malformed(path, ext, mesh):
+    """What is wrong with a file that loaded into ``mesh`` (None when nothing is seen): its header
+    promises what the file does not hold, or it holds no triangles at all."""
+    with open(path, "rb") as f:
+        head = f.read(1 << 16)
+    size = os.path.getsize(path)
+    faces = len(getattr(mesh, "faces", ()))
+    vertices = len(getattr(mesh, "vertices", ()))
+    if ext == "stl" and not head[:5].lower() == b"solid" and size >= 84:
+        promised = int(np.frombuffer(head[80:84], dtype="<u4")[0])
+        if size != 84 + 50 * promised:
+            return (f"binary STL: the header promises {promised} triangles, {84 + 50 * promised} bytes, "
+                    f"the file has {size} bytes")
+    if ext == "ply":
+        if not head.startswith(b"ply"):
+            return "no 'ply' line at the start"
+        declared = dict(re.findall(rb"^element\s+(\w+)\s+(\d+)", head.split(b"end_header")[0], re.M))
+        want_v, want_f = int(declared.get(b"vertex", -1)), int(declared.get(b"face", -1))
+        # Polygons come back as several triangles, so only fewer faces betray a short file.
+        if want_v >= 0 and want_f >= 0 and (vertices != want_v or faces < want_f):
+            return f"the header declares {want_v} vertices and {want_f} faces; {vertices} and {faces} could be read"
+    if faces == 0:
+        return "no triangles could be read from it"
+    return None
 
 
 def validate_mesh(mesh, name="mesh"):
@@ -78,6 +112,29 @@ def check_output(path, protect=(), kinds=None):
         raise InputError(f"{path}: output folder does not exist")
 
 
+def _new_file_mode(path):
+    """The mode ``open`` would give ``path``: the old file's if it exists, else 0o666 less the umask
+    (a temporary file is made 0o600)."""
+    if os.path.exists(path):
+        return os.stat(path).st_mode & 0o7777
+    return 0o666 & ~_umask()
+
+
+def _umask():
+    """The process' umask, read without changing it where Linux shows it (os.umask sets it to read
+    it, for every thread at once)."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except OSError:
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
 def atomic_write(path, write, protect=()):
     """Call ``write(tmp_path)`` then move the result onto ``path`` in one step.
 
@@ -90,11 +147,37 @@ def atomic_write(path, write, protect=()):
     os.close(fd)
     try:
         write(tmp)
+        os.chmod(tmp, _new_file_mode(path))
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+# Formats that store coordinates as float32, and the error (in parts of the mesh's size) they may add.
+FLOAT32_FORMATS = ("stl", "glb")
+FLOAT32_ERROR = 1e-4
+
+
+def check_precision(mesh, path):
+    """Refuse to write ``mesh`` in a float32 format when float32 coordinates would change its
+    shape (a small mesh far from the origin: single precision keeps 7 digits).
+
+    Raises
+    ------
+    InputError
+    """
+    ext = os.path.splitext(str(path))[1].lower().lstrip(".")
+    if ext not in FLOAT32_FORMATS or len(mesh.vertices) == 0:
+        return
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    size = float(np.ptp(vertices, axis=0).max())
+    error = float(np.abs(vertices.astype(np.float32) - vertices).max())
+    if not error <= FLOAT32_ERROR * size:
+        raise InputError(f"{path}: {ext.upper()} stores coordinates in single precision, which cannot hold "
+                         f"this mesh (size {size:.3g} at {np.abs(vertices).max():.3g} from the origin); "
+                         "use ply, obj or off")
 
 
 def save_mesh(mesh, path, protect=()):
@@ -106,6 +189,7 @@ def save_mesh(mesh, path, protect=()):
     UVs and the texture).
     """
     ext = _extension(path)
+    check_precision(mesh, path)
     if ext == "ply":
         kind = getattr(mesh.visual, "kind", None)
         vertex_colours = {} if kind != "vertex" else _colour_fields(mesh.visual.vertex_colors)
@@ -119,7 +203,15 @@ def save_mesh(mesh, path, protect=()):
             faces[name] = values
         _save_ply(path, _vertex_records(mesh.vertices, vertex_colours, "<f8"), faces, protect)
         return
-    atomic_write(path, lambda tmp: mesh.export(tmp, file_type=ext), protect)
+    options = {"digits": _decimal_places(mesh.vertices)} if ext in ("obj", "off") else {}
+    atomic_write(path, lambda tmp: mesh.export(tmp, file_type=ext, **options), protect)
+
+
+def _decimal_places(points):
+    """Decimal places for text formats (trimesh writes fixed-point numbers) that keep 17
+    significant digits of the largest coordinate, so a mesh a micron across keeps its shape."""
+    largest = float(np.abs(points).max()) if len(points) else 0.0
+    return int(np.clip(17 - np.floor(np.log10(largest)), 8, 330)) if largest > 0 else 8
 
 
 def _colour_fields(colours):

@@ -129,22 +129,11 @@ def read_filter_script(path):
 # running
 
 
-def _finite(vertices, faces, where):
-    bad = ~np.isfinite(vertices).all(axis=1)
-    if bad.any():
-        raise SkelfilterError(f"{where}: the result has {int(bad.sum())} of {len(vertices)} vertices with "
-                              "NaN or infinite coordinates")
-    return trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
-
-
 def _run_meshlab(layers, steps, timeout):
     arrays = [(np.asarray(m.vertices, dtype=np.float64), np.asarray(m.faces)) for m in layers.meshes]
     out, current = meshlab_filters.run_filters(
         arrays, layers.current, [(s.name, s.attrs, s.where) for s in steps], timeout)
-    names = ", ".join(s.name for s in steps)
-    meshes = [trimesh.Trimesh(vertices=v, faces=f, process=False) for v, f in out]
-    meshes[current] = _finite(*out[current], f"{steps[0].where}: MeshLab filters ({names})")
-    return Layers(meshes, current)
+    return Layers([trimesh.Trimesh(vertices=v, faces=f, process=False) for v, f in out], current)
 
 
 def _run_skelfilter(layers, step, progress):

@@ -257,28 +257,58 @@ def _load_layers(path):
         return [(z[f"v{i}"], z[f"f{i}"]) for i in range(int(z["count"]))], int(z["current"])
 
 
-def _child_main(workdir):
-    """Entry point of the child process: steps.json and layers.npz in, result.npz (or error.json) out."""
-    hook = os.environ.get(_TEST_HOOK_ENV)
-    if hook == "abort":
+def _test_hook(step):
+    """Tests make the child abort or hang at a step: ``abort`` or ``sleep``, at step 0 or ``@N``."""
+    action, _, at = os.environ.get(_TEST_HOOK_ENV, "").partition("@")
+    if step != int(at or 0):
+        return
+    if action == "abort":
         os.abort()
-    if hook == "sleep":
+    if action == "sleep":
         import time
 
         time.sleep(3600)
+
+
+def _child_main(workdir):
+    """Entry point of the child process: steps.json and layers.npz in, result.npz (or error.json) out.
+
+    Before each step its position goes to the file ``step``, so that a crash or a hang can be
+    told apart from the other steps'."""
     with open(os.path.join(workdir, "steps.json"), encoding="utf-8") as f:
         steps = json.load(f)
     ms = _mesh_set(*_load_layers(os.path.join(workdir, "layers.npz")))
     for i, step in enumerate(steps):
+        with open(os.path.join(workdir, "step"), "w", encoding="utf-8") as f:
+            f.write(str(i))
+        _test_hook(i)
         try:
             params = {k: mlx.param_value(a, step["name"]) for k, a in step["params"].items()}
             ms = apply_filter(ms, step["name"], params)
             layers, current = _layers(ms)
         except Exception as exc:
-            with open(os.path.join(workdir, "error.json"), "w", encoding="utf-8") as f:
-                json.dump({"step": i, "error": f"{type(exc).__name__}: {exc}"}, f)
-            sys.exit(3)
+            _child_fails(workdir, i, f"{type(exc).__name__}: {exc}")
+        vertices = layers[current][0]
+        bad = int((~np.isfinite(vertices).all(axis=1)).sum())
+        if bad:
+            _child_fails(workdir, i, f"the result has {bad} of {len(vertices)} vertices with NaN or infinite "
+                         "coordinates")
     _save_layers(os.path.join(workdir, "result.npz"), layers, current)
+
+
+def _child_fails(workdir, step, error):
+    with open(os.path.join(workdir, "error.json"), "w", encoding="utf-8") as f:
+        json.dump({"step": step, "error": error}, f)
+    sys.exit(3)
+
+
+def _running_step(workdir, steps):
+    """The step the child was at when it stopped (the first if it never started one)."""
+    try:
+        with open(os.path.join(workdir, "step"), encoding="utf-8") as f:
+            return steps[int(f.read())]
+    except (OSError, ValueError, IndexError):
+        return steps[0]
 
 
 def run_filters(layers, current, steps, timeout=300):
@@ -306,13 +336,12 @@ def run_filters(layers, current, steps, timeout=300):
     SkelfilterError
         The child crashed (the signal is named), timed out, or a filter raised (the step is named).
     """
-    names = ", ".join(name for name, _, _ in steps)
     with tempfile.TemporaryDirectory(prefix="skelfilter-meshlab-") as work:
         with open(os.path.join(work, "steps.json"), "w", encoding="utf-8") as f:
             json.dump([{"name": name, "params": attrs} for name, attrs, _ in steps], f)
         _save_layers(os.path.join(work, "layers.npz"), layers, current)
         proc = run_child("skelfilter.meshlab_filters", "_child_main", work, timeout,
-                         f"{steps[0][2]}: MeshLab filters ({names})")
+                         lambda: f"{_running_step(work, steps)[2]} (pymeshlab's {_running_step(work, steps)[0]})")
         error_file = os.path.join(work, "error.json")
         if os.path.exists(error_file):
             with open(error_file, encoding="utf-8") as f:

@@ -13,6 +13,8 @@ from . import (edt_filters, importance, noise, normal_filtering, output_choice, 
                surface, vertex_projection, voxelize)
 from .distance import distance_and_features
 from .errors import InputError, ResourceError
+from .frame import Frame
+from .io import validate_mesh
 from .memory import check_grid_fits, return_freed_memory
 from .neighbourhood import bounding_box, unravel
 from .params import DenoiseParams, NoiseParams
@@ -245,16 +247,22 @@ def denoise_volume(volume, params=None, progress=None, **overrides):
     return result
 
 
-def _voxelize(mesh, resolution, padding, progress):
-    """Occupancy of a mesh on its padded grid, memory checked before allocating."""
+def _voxelize(mesh, resolution, padding, progress, padding_from, required=True):
+    """Occupancy of a mesh on its padded grid, memory checked before allocating (``padding_from``:
+    the flags that set the padding, for the advice). An empty occupancy is refused if ``required``."""
     grid = voxelize.grid_for_bounds(mesh.bounds, resolution, padding)
-    check_grid_fits(grid.shape)
+    check_grid_fits(grid.shape, padding=padding, padding_from=padding_from)
     return_freed_memory()
     with progress.step("voxelize"):
         occupancy = voxelize.voxelize_on_grid(mesh, grid)
-    if not occupancy.any():
-        raise InputError("the mesh encloses no voxel at this resolution (is it flat or open?)")
+    if required:
+        _require_inside(occupancy, mesh, grid, resolution)
     return occupancy, grid
+
+
+def _require_inside(occupancy, mesh, grid, resolution):
+    if not occupancy.any():
+        raise InputError(f"the mesh encloses no voxel at resolution {resolution}: {voxelize.why_empty(mesh, grid)}")
 
 
 def denoise_mesh(mesh, params=None, progress=None, **overrides):
@@ -277,13 +285,27 @@ def denoise_mesh_detailed(mesh, params=None, progress=None, **overrides):
     """Like :func:`denoise_mesh`, also returning the DenoiseResult and the Grid.
 
     The DenoiseResult has no stages when the voxel stage did not run (an open input kept as it is).
+    The work is done in the mesh's unit frame (:mod:`skelfilter.frame`): the result does not
+    depend on the mesh's scale or position.
     """
     params = resolve_params(params, **overrides)
     progress = progress or Progress(enabled=False)
+    frame = Frame.of(validate_mesh(mesh))
+    unit = frame.to_unit(mesh)
+    closed, kept_vertices, result, grid = _denoise_unit(unit, params, progress)
+    out = frame.to_world(closed) if closed is not None else frame.moved(mesh, unit, kept_vertices)
+    return out, result, frame.grid_to_world(grid)
+
+
+def _denoise_unit(mesh, params, progress):
+    """`denoise_mesh_detailed` on a mesh in its unit frame: (a new closed mesh or None, the moved
+    vertices of ``mesh`` or None, the DenoiseResult, the Grid)."""
     if params.resolution is None:
         params = params.with_(resolution=_fitting_resolution(mesh, params))
         progress.note(f"resolution {params.resolution} voxels (from the mesh's mean edge length)")
-    occupancy, grid = _voxelize(mesh, params.resolution, params.padding_voxels, progress)
+    padding_from = "--padding" if params.padding is not None else "--threshold (half of it pads the grid)"
+    occupancy, grid = _voxelize(mesh, params.resolution, params.padding_voxels, progress, padding_from,
+                                required=params.output_mesh == "closed")
     output = params.output_mesh
     skipped = None  # why the voxel stage does not run
     if output == "auto":
@@ -294,15 +316,17 @@ def denoise_mesh_detailed(mesh, params=None, progress=None, **overrides):
                        "smoothed by the fine pass")
     if skipped is None and output != "closed":
         with progress.step("solid check"):
-            solid = (output_choice.is_closed(mesh.faces)
-                     or output_choice.solid_share(occupancy, mesh, grid) >= output_choice.SOLID_SHARE)
+            solid = occupancy.any() and (
+                output_choice.is_closed(mesh.faces)
+                or output_choice.solid_share(occupancy, mesh, grid) >= output_choice.SOLID_SHARE)
             if not solid:
                 skipped = ("the input is an open surface: its own mesh comes back, smoothed by the fine pass "
                            "(the voxel stage needs a solid; --close makes one)")
     if skipped is not None:
         progress.note(skipped)
         result = DenoiseResult(mask=occupancy, field=None, timings=progress.timings)
-        return _kept_mesh(mesh, None, params, grid, progress), result, grid
+        return None, _kept_vertices(mesh, None, params, grid, progress), result, grid
+    _require_inside(occupancy, mesh, grid, params.resolution)
     result = denoise_padded(occupancy.copy(), params, progress)
     voxel_moves = output == "input"
     if output == "auto":
@@ -318,15 +342,14 @@ def denoise_mesh_detailed(mesh, params=None, progress=None, **overrides):
                 surface.keep_input_surface(result.field, result.mask, occupancy, mesh, grid)
         del occupancy
         with progress.step("marching cubes"):
-            out = surface.field_to_mesh(result.field, grid)
-        return out, result, grid
-    out = _kept_mesh(mesh, (result, occupancy) if voxel_moves else None, params, grid, progress)
-    return out, result, grid
+            return surface.field_to_mesh(result.field, grid), None, result, grid
+    vertices = _kept_vertices(mesh, (result, occupancy) if voxel_moves else None, params, grid, progress)
+    return None, vertices, result, grid
 
 
-def _kept_mesh(mesh, voxels, params, grid, progress):
-    """The input mesh with its vertices moved: onto the denoised surface where ``voxels`` (the
-    DenoiseResult and the input occupancy, or None) says the shape changed, then the fine pass."""
+def _kept_vertices(mesh, voxels, params, grid, progress):
+    """The input mesh's vertices, moved: onto the denoised surface where ``voxels`` (the
+    DenoiseResult and the input occupancy, or None) says the shape changed, then by the fine pass."""
     # Vertices split along UV seams or by the file format move as one.
     welded, inverse = np.unique(np.asarray(mesh.vertices, dtype=np.float64), axis=0, return_inverse=True)
     inverse = inverse.reshape(-1)
@@ -353,9 +376,7 @@ def _kept_mesh(mesh, voxels, params, grid, progress):
             vertices, folded = vertex_projection.unfold(smoothed, faces, reference)
         if folded:
             progress.note(f"{folded} faces stay folded (turned against the surface or without area)")
-    out = mesh.copy()
-    out.vertices = vertices[inverse]
-    return out
+    return vertices[inverse]
 
 
 def _fitting_resolution(mesh, params):
@@ -387,10 +408,12 @@ def noisy_mesh(mesh, params=None, progress=None, **overrides):
     elif overrides:
         params = replace(params, **overrides)
     progress = progress or Progress(enabled=False)
-    clean, grid = _voxelize(mesh, params.resolution, params.padding_voxels, progress)
+    frame = Frame.of(validate_mesh(mesh))
+    clean, grid = _voxelize(frame.to_unit(mesh), params.resolution, params.padding_voxels, progress,
+                            "--h and --r (the padding is h + r + 10)")
     with progress.step("noise"):
         result = noise.add_noise(clean, p=params.p, r=params.r, h=params.h, l=params.l,
                                  seed=params.seed, dents=params.dents)
     with progress.step("marching cubes"):
         out = surface.mask_to_mesh(result.noisy, grid)
-    return out, result, grid
+    return frame.to_world(out), result, frame.grid_to_world(grid)

@@ -182,6 +182,20 @@ def voxelize(mesh, resolution=256, padding=8):
     return _occupancy(vertices, faces, grid), grid
 
 
+def why_empty(mesh, grid):
+    """Why ``mesh`` encloses no voxel centre of ``grid``, in words for the user."""
+    parts = mesh.split(only_watertight=False) if len(mesh.faces) else []
+    extents = np.array([np.ptp(p.vertices, axis=0) for p in parts]).reshape(-1, 3)
+    across = np.ptp(np.asarray(mesh.vertices), axis=0).max() / grid.pitch
+    voxel = f"1/{across:.0f} of the mesh's longest side"
+    if len(parts) > 1 and (extents.max(axis=1) < grid.pitch).all():
+        return (f"its {len(parts)} parts are each smaller than a voxel ({voxel}): they lie far apart for their size; "
+                "denoise them one at a time")
+    if len(extents) and (extents.min(axis=1) < 2 * grid.pitch).all():
+        return f"it is thinner than two voxels (a voxel is {voxel}): flat, or raise --resolution"
+    return "it encloses nothing: is it an open surface?"
+
+
 def voxelize_on_grid(mesh, grid):
     """Occupancy of a mesh on a given grid: True where the voxel centre is inside.
 

@@ -74,6 +74,23 @@ def test_child_crash_is_reported(noisy_box, monkeypatch):
         run_filter_script(noisy_box, script("taubin.mlx"))
 
 
+TWO_FILTERS = ('<!DOCTYPE FilterScript>\n<FilterScript>\n <filter name="Taubin Smooth"/>\n'
+               ' <filter name="Laplacian Smooth"/>\n</FilterScript>\n')
+
+
+@pytest.mark.parametrize("hook, expected", [
+    ("abort@1", r"two.mlx:4: filter 'Laplacian Smooth' \(pymeshlab's apply_coord_laplacian_smoothing\) "
+                r"crashed: .*signal 6"),
+    ("sleep@1", r"two.mlx:4: filter 'Laplacian Smooth' .* did not finish within 2 s"),
+    ("abort", r"two.mlx:3: filter 'Taubin Smooth' \(pymeshlab's apply_coord_taubin_smoothing\) crashed"),
+])
+def test_the_filter_that_crashed_or_hung_is_named(noisy_box, monkeypatch, tmp_path, hook, expected):
+    (tmp_path / "two.mlx").write_text(TWO_FILTERS)
+    monkeypatch.setenv(_TEST_HOOK_ENV, hook)
+    with pytest.raises(SkelfilterError, match=expected):
+        run_filter_script(noisy_box, str(tmp_path / "two.mlx"), timeout=2)
+
+
 def test_child_timeout_is_reported(noisy_box, monkeypatch):
     monkeypatch.setenv(_TEST_HOOK_ENV, "sleep")
     with pytest.raises(SkelfilterError, match="did not finish within 1 s"):
