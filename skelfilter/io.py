@@ -73,7 +73,9 @@ def _malformed(path, ext, mesh):
 
 def validate_mesh(mesh, name="mesh"):
     """Check a mesh has triangles and finite vertices; returns it."""
-    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0 or len(mesh.vertices) == 0:
+    if not isinstance(mesh, trimesh.Trimesh):
+        raise InputError(f"{name}: expected a trimesh.Trimesh, got {type(mesh).__name__}")
+    if len(mesh.faces) == 0 or len(mesh.vertices) == 0:
         raise InputError(f"{name}: the mesh is empty (no triangles)")
     if not np.isfinite(mesh.vertices).all():
         raise InputError(f"{name}: vertex coordinates contain NaN or infinity")

@@ -59,6 +59,26 @@ def check_limits(params):
                                  f"[{low:g}, {high:g}], got {value!r}")
 
 
+def build(cls, base=None, **values):
+    """A ``cls`` (a parameter dataclass) from ``values``, or ``base`` with ``values`` changed.
+
+    Raises
+    ------
+    ParameterError
+        An unknown name, as for any other bad value (not the TypeError of the constructor).
+    """
+    known = [f.name for f in fields(cls)]
+    unknown = sorted(set(values) - set(known))
+    if unknown:
+        raise ParameterError(f"unknown parameter{'s' if len(unknown) > 1 else ''} {', '.join(unknown)} "
+                             f"(known: {', '.join(known)})")
+    if base is None:
+        return cls(**values)
+    if not values:
+        return base
+    return base.with_(**values) if hasattr(base, "with_") else replace(base, **values)
+
+
 # What each preset sets when the field is left unset.
 PRESETS = {
     "default": {"stages": "foreground", "threshold": None, "threshold_relative": 30.0 / 160.0,

@@ -5,7 +5,7 @@ derivative measure -> rho+ -> pruned skeleton -> EDT filter ->
 reconstruction -> mesh; foreground stage for bumps, background stage for dents.
 """
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -17,7 +17,7 @@ from .frame import Frame
 from .io import validate_mesh
 from .memory import check_grid_fits, return_freed_memory
 from .neighbourhood import bounding_box, unravel
-from .params import DenoiseParams, NoiseParams
+from .params import DenoiseParams, NoiseParams, build
 from .progress import Progress
 
 
@@ -52,9 +52,7 @@ class DenoiseResult:
 
 def resolve_params(params=None, **overrides):
     """A DenoiseParams from an instance and/or keyword overrides."""
-    if params is None:
-        return DenoiseParams(**overrides)
-    return params.with_(**overrides) if overrides else params
+    return build(DenoiseParams, params, **overrides)
 
 
 def saliency_stage(volume, params, progress):
@@ -403,10 +401,7 @@ def noisy_mesh(mesh, params=None, progress=None, **overrides):
         The noisy mesh in world coordinates; the clean/noisy/bump/dent masks
         over the grid, for metrics.
     """
-    if params is None:
-        params = NoiseParams(**overrides)
-    elif overrides:
-        params = replace(params, **overrides)
+    params = build(NoiseParams, params, **overrides)
     progress = progress or Progress(enabled=False)
     frame = Frame.of(validate_mesh(mesh))
     clean, grid = _voxelize(frame.to_unit(mesh), params.resolution, params.padding_voxels, progress,

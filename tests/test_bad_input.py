@@ -3,11 +3,17 @@ and nothing left behind (issue: reliability). More cases live in test_cli.py and
 
 import hashlib
 import os
+import resource
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 import trimesh
+
+from skelfilter import DenoiseParams, NoiseParams, io, pipeline
+from skelfilter.errors import InputError, ParameterError, ResourceError
+from skelfilter.meshlab import run_filter_script
 
 SCRIPT = '<!DOCTYPE FilterScript>\n<FilterScript>\n <filter name="Taubin Smooth"/>\n</FilterScript>\n'
 
@@ -43,18 +49,105 @@ CASES = [
     (["compare", "{dir}", "--out", "{dir}/report"], "no such configuration file"),
     (["compare", "--out", "{file}"], "exists and is not a folder"),
     (["frobnicate"], "invalid choice"),
+    # malformed or unusable input files
+    (["denoise", "{root}/objtext.stl", "{out}"], "malformed STL file (binary STL: the header promises"),
+    (["denoise", "{root}/falsecount.stl", "{out}"], "the header promises 1000 triangles"),
+    (["denoise", "{root}/morevert.ply", "{out}"], "the header declares 50 vertices"),
+    (["denoise", "{root}/garbage.obj", "{out}"], "malformed OBJ file (no triangles could be read"),
+    (["denoise", "{root}/empty.off", "{out}"], "the file is empty"),
+    (["denoise", "{root}/short.off", "{out}"], "malformed OFF file"),
+    (["denoise", "{root}/nan.obj", "{out}"], "vertex coordinates contain NaN or infinity"),
+    (["denoise", "{root}/point.obj", "{out}"], "all vertices coincide"),
+    (["denoise", "{root}/adir.ply", "{out}"], "is a folder, not a mesh file"),
+    (["denoise", "{root}/missing.ply", "{out}"], "no such file"),
+    (["noise", "{root}/garbage.obj", "{out}"], "malformed OBJ file"),
+    (["denoise", "{root}/apart.ply", "{out}", "--close", "--resolution", "32"],
+     "its 2 parts are each smaller than a voxel"),
+    (["denoise", "{root}/smallfar.ply", "{out}.stl"], "STL stores coordinates in single precision"),
+    # memory: refused before allocating, with advice that names the cause
+    (["denoise", "{in}", "{out}", "--resolution", "4096"], "GiB is available; lower --resolution"),
+    (["denoise", "{in}", "{out}", "--resolution", "64", "--threshold", "9000"],
+     "the padding of 4502 voxels on each side makes most of it; lower --threshold"),
+    (["denoise", "{in}", "{out}", "--resolution", "16", "--padding", "4000"], "lower --padding"),
+    (["noise", "{in}", "{out}", "--resolution", "4096"], "GiB is available; lower --resolution"),
+    (["noise", "{in}", "{out}", "--resolution", "32", "--h", "1000", "--r", "1000"], "lower --h and --r"),
+    # scripts
+    (["run-script", "{root}/writes.mlx", "{in}", "{out}"], "reads or writes files; not allowed in scripts"),
+    (["run-script", "{root}/sketchfab.mlx", "{in}", "{out}"], "reads or writes files; not allowed in scripts"),
+    (["run-script", "{root}/notxml.mlx", "{in}", "{out}"], "malformed filter script XML"),
+    (["run-script", "{root}/unknown.mlx", "{in}", "{out}"], "'No Such Filter': unknown filter"),
+    (["run-script", "{root}/entity.mlx", "{in}", "{out}"], "the DOCTYPE declares an internal subset"),
+    (["run-script", "{root}/badvalue.mlx", "{in}", "{out}"], "threshold must be a number in"),
+    (["run-script", "{root}/missing.mlx", "{in}", "{out}"], "no such filter script"),
+    (["run-script", "{script}", "{in}", "{script}"], "refusing to overwrite the script file"),
+    (["run-script", "{script}", "{in}", "{out}.txt"], "unsupported format 'txt'"),
+    (["export-script", "denoise", "{out}.txt"], "ends in .mlx"),
+    (["export-script", "denoise", "{out}.mlx", "--k", "-2"], "k must be a number in [0, 100]"),
+    (["filters", "No Such Filter"], "no filter 'No Such Filter'"),
+    # comparison configurations
+    (["compare", "{root}/type.toml", "--out", "{out}.d"], "case: must be a list of [[case]] tables, got int"),
+    (["compare", "{root}/noisep.toml", "--out", "{out}.d"], "case 1 (c): noise: p must be a number"),
+    (["compare", "{root}/jobs.toml", "--out", "{out}.d"], "jobs must be a positive integer"),
+    (["compare", "{root}/kind.toml", "--out", "{out}.d"], "kind must be one of"),
+    (["compare", "{root}/failing.toml", "--out", "{out}.d", "--quiet"], "garbage.obj: malformed OBJ file"),
 ]
+
+
+def _script(filter_name, params=""):
+    return f'<!DOCTYPE FilterScript>\n<FilterScript>\n <filter name="{filter_name}">\n{params} </filter>\n</FilterScript>\n'
+
+
+def _config(case, method='name = "s"\nkind = "skelfilter"', run=""):
+    return f"{run}\n[[case]]\n{case}\n[[method]]\n{method}\n"
+
+
+BOX_OBJ = trimesh.creation.box().export(file_type="obj")
+BOX_PLY = "".join(trimesh.creation.box().export(file_type="ply", encoding="ascii").decode())
+
+# Files the cases read, by name; {root} is the folder they are in.
+FILES = {
+    "s.mlx": SCRIPT,
+    "afile": "x",
+    "objtext.stl": BOX_OBJ,
+    "falsecount.stl": b"\0" * 80 + np.uint32(1000).tobytes() + np.zeros(12, np.float32).tobytes() + b"\0\0",
+    "morevert.ply": BOX_PLY.replace("element vertex 8", "element vertex 50"),
+    "garbage.obj": "hello world\n",
+    "empty.off": "",
+    "short.off": "OFF\n3 1 0\n0 0 0\n1 0 0\n",
+    "nan.obj": "v 0 0 0\nv 1 0 0\nv nan 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n",
+    "point.obj": "v 1 1 1\nv 1 1 1\nv 1 1 1\nf 1 2 3\n",
+    "writes.mlx": _script("Save Snapshot", '  <Param name="imagefilename" type="RichString" value="{root}/x.png"/>\n'),
+    "sketchfab.mlx": _script("export_mesh_to_sketchfab"),
+    "notxml.mlx": "this is not xml <",
+    "unknown.mlx": _script("No Such Filter"),
+    "entity.mlx": '<?xml version="1.0"?>\n<!DOCTYPE x [<!ENTITY e SYSTEM "file:///etc/passwd">]>\n'
+                  '<FilterScript><filter name="&e;"/></FilterScript>\n',
+    "badvalue.mlx": _script("Skeleton Saliency Denoise",
+                            '  <Param name="threshold" type="RichFloat" value="1e30"/>\n'),
+    "type.toml": "case = 3\nmethod = 'x'\n",
+    "noisep.toml": _config('name = "c"\nmodel = "cube"\nnoise = {p = "abc"}'),
+    "jobs.toml": _config('name = "c"\nmodel = "cube"', run="[run]\njobs = 0"),
+    "kind.toml": _config('name = "c"\nmodel = "cube"', method='name = "s"\nkind = "magic"'),
+    "failing.toml": _config('name = "c"\nnoisy = "garbage.obj"\nclean = "cube.ply"'),
+}
 
 
 @pytest.fixture(scope="module")
 def files(tmp_path_factory):
     root = tmp_path_factory.mktemp("bad")
-    mesh = root / "cube.ply"
-    trimesh.creation.box().export(mesh)
-    script = root / "s.mlx"
-    script.write_text(SCRIPT)
+    trimesh.creation.box().export(root / "cube.ply")
+    for name, content in FILES.items():
+        if isinstance(content, str):
+            (root / name).write_text(content.replace("{root}", str(root)))
+        else:
+            (root / name).write_bytes(content)
+    far = trimesh.creation.box()
+    trimesh.util.concatenate([far, far.copy().apply_translation((1e4, 0, 0))]).export(root / "apart.ply")
+    small_far = trimesh.creation.box()
+    small_far.vertices = small_far.vertices * 1e-3 + 1e9
+    io.save_mesh(small_far, root / "smallfar.ply")
     (root / "adir").mkdir()
-    (root / "afile").write_text("x")
+    (root / "adir.ply").mkdir()
     return root
 
 
@@ -62,18 +155,20 @@ def digest(path):
     return hashlib.sha256(open(path, "rb").read()).hexdigest()
 
 
-@pytest.mark.parametrize("args, message", CASES, ids=[" ".join(a[:1] + a[3:]) or a[0] for a, _ in CASES])
+@pytest.mark.parametrize("args, message", CASES,
+                         ids=[" ".join(a.replace("{root}/", "") for a in args) for args, _ in CASES])
 def test_bad_input_gives_one_line_and_exit_2(files, tmp_path, args, message):
     names = {"in": files / "cube.ply", "out": tmp_path / "out.ply", "dir": files / "adir", "file": files / "afile",
-             "script": files / "s.mlx"}
+             "script": files / "s.mlx", "root": files}
     argv = [a.format(**{k: str(v) for k, v in names.items()}) for a in args]
-    before = {p: digest(files / p) for p in ("cube.ply", "s.mlx", "afile")}
+    before = {p.name: digest(p) for p in files.iterdir() if p.is_file()}
     r = subprocess.run([sys.executable, "-m", "skelfilter.cli", *argv], capture_output=True, text=True, timeout=300)
     lines = [line for line in r.stderr.splitlines() if line.strip()]
     assert r.returncode == 2 and len(lines) == 1 and lines[0].startswith("skelfilter: error:"), r.stderr
     assert message in lines[0]
     assert {p: digest(files / p) for p in before} == before
-    assert os.listdir(tmp_path) == [] and os.listdir(files / "adir") == []
+    assert os.listdir(tmp_path) == [] and os.listdir(files / "adir") == [] and os.listdir(files / "adir.ply") == []
+    assert sorted(p.name for p in files.iterdir() if p.is_file()) == sorted(before)
 
 
 @pytest.mark.parametrize("extra, message", [
@@ -90,3 +185,110 @@ def test_output_paths_are_checked_before_computing(files, tmp_path, extra, messa
     lines = [line for line in r.stderr.splitlines() if line.strip()]
     assert r.returncode == 2 and len(lines) == 1 and message in lines[0], r.stderr
     assert os.listdir(tmp_path) == []
+
+
+def _cube():
+    return trimesh.creation.box()
+
+
+def _meshset_call(name, **params):
+    import pymeshlab
+
+    from skelfilter import meshset
+
+    meshset.register()
+    ms = pymeshlab.MeshSet()
+    cube = _cube()
+    ms.add_mesh(pymeshlab.Mesh(cube.vertices, cube.faces))
+    getattr(ms, name)(**params)
+
+
+API_CASES = [
+    (lambda m: pipeline.denoise_mesh(m, k=float("nan")), ParameterError, r"k must be a number in \[0, 100\]"),
+    (lambda m: pipeline.denoise_mesh(m, resolution="64"), ParameterError, "resolution must be an integer"),
+    (lambda m: pipeline.denoise_mesh(m, resolution=2**63), ParameterError, r"resolution must be an integer in"),
+    (lambda m: pipeline.denoise_mesh(m, threshold=float("inf")), ParameterError, "threshold must be a number"),
+    (lambda m: pipeline.denoise_mesh(m, nosuch=1), ParameterError, "unknown parameter nosuch"),
+    (lambda m: pipeline.denoise_mesh(m, output_mesh="cube"), ParameterError, "output_mesh must be one of"),
+    (lambda m: pipeline.denoise_mesh(m, preset="fast"), ParameterError, "preset must be one of"),
+    (lambda m: pipeline.denoise_mesh(m, resolution=4096), ResourceError, "GiB is available"),
+    (lambda m: pipeline.denoise_mesh(str(m)), InputError, "expected a trimesh.Trimesh, got str"),
+    (lambda m: pipeline.denoise_mesh(trimesh.Trimesh()), InputError, "the mesh is empty"),
+    (lambda m: pipeline.denoise_mesh(trimesh.Trimesh(m.vertices * np.nan, m.faces, process=False)), InputError,
+     "NaN"),
+    (lambda m: pipeline.noisy_mesh(m, l=10**9), ParameterError, r"l must be an integer in \[1, 100000\]"),
+    (lambda m: pipeline.noisy_mesh(m, q=1), ParameterError, "unknown parameter q"),
+    (lambda m: pipeline.noisy_mesh(m, seed=-1), ParameterError, "seed must be an integer in"),
+    (lambda m: pipeline.denoise_volume(np.zeros((4, 4))), InputError, "a volume must be 3-D"),
+    (lambda m: pipeline.denoise_volume(np.zeros((8, 8, 8))), InputError, "the volume is empty"),
+    (lambda m: DenoiseParams(k=-1), ParameterError, r"k must be a number in \[0, 100\]"),
+    (lambda m: NoiseParams(r=float("nan")), ParameterError, "r must be a number in"),
+    (lambda m: _meshset_call("apply_skeleton_saliency_denoise", threshold=-1.0), ParameterError,
+     "threshold must be a number in"),
+    (lambda m: _meshset_call("apply_skeleton_noise", l=0), ParameterError, "l must be an integer in"),
+    (lambda m: _meshset_call("apply_skeleton_saliency_denoise", treshold=9.0), ParameterError, "treshold"),
+]
+
+
+@pytest.mark.parametrize("call, error, message", API_CASES, ids=[f"api{i}" for i in range(len(API_CASES))])
+def test_python_api_refuses_with_one_error_and_leaves_the_mesh_alone(call, error, message):
+    mesh = _cube()
+    vertices, faces = mesh.vertices.copy(), mesh.faces.copy()
+    with pytest.raises(error, match=message):
+        call(mesh)
+    assert np.array_equal(mesh.vertices, vertices) and np.array_equal(mesh.faces, faces)
+
+
+def test_script_that_writes_files_is_refused_by_the_python_api(files):
+    before = digest(files / "cube.ply")
+    with pytest.raises(InputError, match="reads or writes files; not allowed in scripts"):
+        run_filter_script(_cube(), str(files / "writes.mlx"))
+    assert not (files / "x.png").exists() and digest(files / "cube.ply") == before
+
+
+def _limit_memory(megabytes):
+    def apply():
+        resource.setrlimit(resource.RLIMIT_AS, (megabytes * 2**20, megabytes * 2**20))
+    return apply
+
+
+def test_a_process_memory_limit_is_respected(files, tmp_path):
+    """``ulimit -v``: the estimate reads the limit, so a grid the machine could hold is refused at once."""
+    r = subprocess.run([sys.executable, "-m", "skelfilter.cli", "denoise", str(files / "cube.ply"),
+                        str(tmp_path / "out.ply"), "--resolution", "1024"], capture_output=True, text=True,
+                       timeout=300, preexec_fn=_limit_memory(4096))
+    lines = [line for line in r.stderr.splitlines() if line.strip()]
+    assert r.returncode == 2 and len(lines) == 1 and "GiB is available" in lines[0], r.stderr
+    assert float(lines[0].split("only ")[1].split(" GiB")[0]) < 4.0
+    assert os.listdir(tmp_path) == []
+
+
+def test_library_warnings_are_one_line_or_silent(capsys):
+    import logging
+    import warnings
+
+    from skelfilter import cli
+
+    with warnings.catch_warnings():
+        saved = warnings.showwarning
+        try:
+            for quiet, expected in ((False, "skelfilter: warning: a library complains\n" * 2), (True, "")):
+                cli._route_library_messages(quiet)
+                warnings.warn("a library\n complains", UserWarning)
+                logging.getLogger("trimesh").warning("a library complains")
+                assert capsys.readouterr().err == expected
+        finally:
+            warnings.showwarning = saved
+            logging.basicConfig(level=logging.WARNING, force=True)
+
+
+def test_outputs_follow_the_umask(files, tmp_path):
+    old = os.umask(0o027)
+    try:
+        io.save_mesh(_cube(), tmp_path / "new.ply")
+        assert os.stat(tmp_path / "new.ply").st_mode & 0o777 == 0o640
+        os.chmod(tmp_path / "new.ply", 0o604)
+        io.save_mesh(_cube(), tmp_path / "new.ply")  # a replaced file keeps its mode
+        assert os.stat(tmp_path / "new.ply").st_mode & 0o777 == 0o604
+    finally:
+        os.umask(old)
