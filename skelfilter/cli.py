@@ -6,6 +6,7 @@ itself read off the parameter dataclasses in :mod:`skelfilter.params`.
 """
 
 import argparse
+import dataclasses
 import logging
 import math
 import os
@@ -17,11 +18,10 @@ import warnings
 # blocked, they never receive them (see skelfilter.signals).
 _MASK = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
 try:
-    import numpy as np
-
-    from . import filters, io, meshlab, meshlab_filters, pipeline, signals
+    from . import files, filters, io, meshlab, meshlab_filters, pipeline, signals
     from .errors import InputError, SkelfilterError
     from .filters import ADD_SKELETON_NOISE, SKELETON_SALIENCY_DENOISE
+    from .params import VolumeParams
     from .progress import Progress
 finally:
     signal.pthread_sigmask(signal.SIG_SETMASK, _MASK)
@@ -83,13 +83,16 @@ def build_parser():
     sub = parser.add_subparsers(dest="command", required=True)
 
     den = sub.add_parser("denoise", help="denoise a mesh (thesis §8.1.1)")
-    den.add_argument("input", help="input mesh (PLY, OBJ, STL, OFF, GLB); never modified")
-    den.add_argument("output", help="output mesh, written atomically")
+    den.add_argument("input", help="input mesh (PLY, OBJ, STL, OFF, GLB) or volume (NIfTI .nii/.nii.gz, "
+                     "NRRD, TIFF stack, .npy); never modified")
+    den.add_argument("output", help="output mesh, or for a volume input a volume (the input's grid, header "
+                     "and affine) or a mesh in the scanner's world coordinates; written atomically")
     _add_filter_flags(den, SKELETON_SALIENCY_DENOISE)
     den.add_argument("--close", action="store_true", help="write a new watertight mesh of the denoised "
                      "solid (marching cubes), the same as --output-mesh closed")
     den.add_argument("--save-skeleton", metavar="FILE", help="write the skeleton voxels as a PLY point "
                      "cloud with per-point D, rho, sigma_bar, rho_plus (quality = rho_plus)")
+    _add_volume_flags(den)
     _add_display_flags(den)
 
     noi = sub.add_parser("noise", help="add the thesis' synthetic noise (§7.2) to a mesh")
@@ -133,6 +136,15 @@ def build_parser():
     return parser
 
 
+def _add_volume_flags(parser):
+    group = parser.add_argument_group("volume input")
+    described = {f.name: f.metadata for f in dataclasses.fields(VolumeParams)}
+    choice = group.add_mutually_exclusive_group()
+    choice.add_argument("--label", type=int, metavar="N", help=described["label"]["help"])
+    choice.add_argument("--iso", type=float, metavar="LEVEL", help=described["iso"]["help"])
+    group.add_argument("--spacing", type=float, nargs=3, metavar=("X", "Y", "Z"), help=described["spacing"]["help"])
+
+
 def _add_display_flags(parser):
     group = parser.add_mutually_exclusive_group()
     group.add_argument("--progress", dest="progress", action="store_true", default=None,
@@ -146,44 +158,17 @@ def _denoise(args):
             raise InputError(f"--close contradicts --output-mesh {args.output_mesh}")
         args.output_mesh = "closed"
     params = _params(SKELETON_SALIENCY_DENOISE, args)
-    io.check_output(args.output, [args.input], io.MESH_FORMATS)
-    if args.save_skeleton:
-        io.check_output(args.save_skeleton, {args.input: "input", args.output: "output"}, ("ply",))
-    mesh = io.load_mesh(args.input)
-    io.check_precision(mesh, args.output)
+    volume = VolumeParams(label=args.label, iso=args.iso, spacing=args.spacing)
     progress = Progress(enabled=args.progress)
-    out, result, grid = pipeline.denoise_mesh_detailed(mesh, params, progress)
-    if args.save_skeleton and not result.stages:
-        raise InputError(f"--save-skeleton: no skeleton was computed ({progress.notes[-1]}); "
-                         "--close runs the voxel stage")
-    protect = [args.input]
-    io.save_mesh(out, args.output, protect=protect)
-    if args.save_skeleton:
-        _save_skeleton(args.save_skeleton, result, grid, {args.input: "input", args.output: "output"})
+    summary = files.denoise_file(args.input, args.output, params, volume, args.save_skeleton, progress)
     if args.progress is None and not progress.enabled:
         for line in progress.notes:
             print(f"skelfilter: {line}", file=sys.stderr)
     if progress.enabled:
         total = sum(progress.timings.values())
-        print(f"wrote {args.output}: {len(out.vertices)} vertices, {len(out.faces)} faces "
-              f"({total:.1f} s)", file=sys.stderr)
-
-
-def _save_skeleton(path, result, grid, protect):
-    points, props = [], {"quality": [], "d": [], "rho": [], "sigma_bar": [], "rho_plus": [], "kept": [],
-                         "stage": []}
-    for stage_id, name in enumerate(("foreground", "background")):
-        if name not in result.stages:
-            continue
-        s = result.stages[name].skeleton
-        ijk = np.stack(np.unravel_index(s.voxels, grid.shape), axis=1)
-        points.append(grid.to_world(ijk))
-        for key, values in (("quality", s.rho_plus), ("d", s.distance), ("rho", s.rho),
-                            ("sigma_bar", s.sigma_bar), ("rho_plus", s.rho_plus), ("kept", s.kept)):
-            props[key].append(values)
-        props["stage"].append(np.full(len(s.voxels), stage_id))
-    io.save_point_cloud_ply(path, np.concatenate(points), {k: np.concatenate(v) for k, v in props.items()},
-                            protect)
+        shape = (f"{summary['vertices']} vertices, {summary['faces']} faces" if "faces" in summary
+                 else f"{summary['voxels_changed']} voxels changed")
+        print(f"wrote {args.output}: {shape} ({total:.1f} s)", file=sys.stderr)
 
 
 def _noise(args):

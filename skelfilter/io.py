@@ -137,6 +137,13 @@ def _umask():
     return mask
 
 
+def _suffix(path):
+    """The file name's suffix, two of them for a compressed file (``.nii.gz``): writers that choose
+    the format by the name see the output's."""
+    stem, last = os.path.splitext(path)
+    return os.path.splitext(stem)[1] + last if last.lower() == ".gz" else last
+
+
 def atomic_write(path, write, protect=()):
     """Call ``write(tmp_path)`` then move the result onto ``path`` in one step.
 
@@ -145,7 +152,7 @@ def atomic_write(path, write, protect=()):
     path = str(path)
     check_output(path, protect)
     directory = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(dir=directory, prefix=".skelfilter-", suffix=os.path.splitext(path)[1])
+    fd, tmp = tempfile.mkstemp(dir=directory, prefix=".skelfilter-", suffix=_suffix(path))
     os.close(fd)
     try:
         write(tmp)

@@ -11,6 +11,7 @@ import numpy as np
 
 from . import (edt_filters, importance, noise, normal_filtering, output_choice, reconstruct, saliency, skeleton,
                surface, vertex_projection, voxelize)
+from . import spacing as voxel_spacing
 from .distance import distance_and_features
 from .errors import InputError, ResourceError
 from .frame import Frame
@@ -48,6 +49,7 @@ class DenoiseResult:
     field: np.ndarray  # > 0 inside; its 0-level is the sub-voxel surface
     stages: dict = field(default_factory=dict)  # "foreground"/"background" -> StageResult
     timings: dict = field(default_factory=dict)
+    voxels_changed: int = 0  # voxels added or removed on the pipeline's grid
 
 
 def resolve_params(params=None, **overrides):
@@ -204,7 +206,7 @@ def _fill_outside(volume, box, value):
             volume[tuple(index)] = value
 
 
-def denoise_volume(volume, params=None, progress=None, **overrides):
+def denoise_volume(volume, params=None, progress=None, spacing=None, **overrides):
     """Denoise a binary volume (thesis §8.1.1).
 
     Parameters
@@ -214,12 +216,17 @@ def denoise_volume(volume, params=None, progress=None, **overrides):
     params : DenoiseParams, optional
         Parameters; keyword arguments override single fields
         (``denoise_volume(v, threshold=12)``).
+    spacing : sequence of 3 floats, optional
+        Voxel size along each axis (e.g. millimetres). Anisotropic voxels are resampled to cubic
+        ones of the finest spacing for the pipeline and the result back (:mod:`skelfilter.spacing`);
+        voxel counts in the parameters are then in voxels of the finest spacing, and a relative
+        threshold stands for the same physical size whatever the spacing.
 
     Returns
     -------
     DenoiseResult
         ``mask`` (same shape as ``volume``), ``field`` (> 0 inside, 0 on the
-        sub-voxel surface), per-stage skeleton data and step timings.
+        sub-voxel surface), per-stage skeleton data (on the cubic grid) and step timings.
         The volume's grid is used as it is: ``resolution`` is taken as the longest side of the
         set voxels' bounding box, so a relative threshold is relative to the shape's size.
     """
@@ -230,18 +237,43 @@ def denoise_volume(volume, params=None, progress=None, **overrides):
     volume = volume.astype(bool)
     if not volume.any():
         raise InputError("the volume is empty: no voxel is set")
+    progress = progress or Progress(enabled=False)
+    resample = spacing is not None and not voxel_spacing.is_isotropic(spacing)
+    keep = params.unchanged_surface == "input"
+    if resample:
+        check_grid_fits(voxel_spacing.isotropic_shape(volume.shape, spacing))
+        with progress.step("to cubic voxels"):
+            input_field, _ = voxel_spacing.to_isotropic(volume, spacing)
+            cubic = input_field > 0
+    else:
+        cubic = volume
+        input_field = voxel_spacing.signed_distance(volume, (1.0, 1.0, 1.0)) if keep else None
+    result = _denoise_cubic(cubic, params, progress)
+    if keep:
+        with progress.step("input surface"):
+            surface.keep_input_field(result.field, result.mask, cubic, input_field)
+    del cubic, input_field
+    if resample:
+        with progress.step("back to the input's voxels"):
+            result.field = voxel_spacing.from_isotropic(result.field, spacing, volume.shape)
+            result.mask = result.field > 0
+    result.voxels_changed = int(np.count_nonzero(result.mask != volume))
+    return result
+
+
+def _denoise_cubic(volume, params, progress):
+    """`denoise_volume` on a non-empty boolean volume of cubic voxels."""
     extent = max(s.stop - s.start for s in bounding_box(volume))
     params = params.with_(resolution=max(extent, 16))
     pad = params.padding_voxels
     padded_shape = tuple(s + 2 * pad for s in volume.shape)
-    check_grid_fits(padded_shape)
+    check_grid_fits(padded_shape, padding=pad, padding_from="--threshold (half of it pads the grid)")
     return_freed_memory()
     padded = np.pad(volume, pad)
-    progress = progress or Progress(enabled=False)
     result = denoise_padded(padded, params, progress)
     inner = (slice(pad, -pad),) * 3
-    result.mask = result.mask[inner]
-    result.field = result.field[inner]
+    result.mask = np.ascontiguousarray(result.mask[inner])
+    result.field = np.ascontiguousarray(result.field[inner])
     return result
 
 
@@ -326,6 +358,7 @@ def _denoise_unit(mesh, params, progress):
         return None, _kept_vertices(mesh, None, params, grid, progress), result, grid
     _require_inside(occupancy, mesh, grid, params.resolution)
     result = denoise_padded(occupancy.copy(), params, progress)
+    result.voxels_changed = int(np.count_nonzero(result.mask != occupancy))
     voxel_moves = output == "input"
     if output == "auto":
         with progress.step("noise layer"):

@@ -7,6 +7,7 @@ from skimage import measure
 
 from . import reconstruct
 from .neighbourhood import bounding_box, unravel
+from .voxelize import Grid
 
 # Balls of radius D touch the centres of the nearest outside voxels; the
 # boundary between inside and outside voxel centres is half a voxel further in.
@@ -39,6 +40,38 @@ def field_to_mesh(field, grid):
     return mesh
 
 
+def field_to_world_mesh(field, affine):
+    """Marching cubes of the 0-level of ``field`` (> 0 inside) on a grid whose voxel indices go to
+    the world through the 4x4 ``affine`` (a scanner's volume); closed even where the inside
+    touches the grid's border.
+
+    Returns
+    -------
+    trimesh.Trimesh
+        Watertight, outward-oriented mesh in world coordinates.
+    """
+    padded = np.pad(np.asarray(field, dtype=np.float32), 1, constant_values=-1.0)
+    mesh = field_to_mesh(padded, Grid(origin=(-1.0, -1.0, -1.0), pitch=1.0, shape=padded.shape))
+    affine = np.asarray(affine, dtype=float)
+    mesh.vertices = mesh.vertices @ affine[:3, :3].T + affine[:3, 3]
+    if np.linalg.det(affine[:3, :3]) < 0:
+        mesh.invert()
+    return mesh
+
+
+def _unchanged_band(field, mask, occupancy, reach):
+    """Flat indices of the voxels whose field values shape the 0-level (``|field| < 1.5``) and lie
+    more than ``reach`` voxels (6-connected steps) from any voxel the denoising changed."""
+    near_change = ndimage.binary_dilation(mask != occupancy, iterations=reach)
+    return np.flatnonzero((np.abs(field) < 1.5).reshape(-1) & ~near_change.reshape(-1))
+
+
+def _put_distances(field, mask, band, distance):
+    """``field[band]`` = ``distance`` with the mask's sign, so the mesh and the voxels still agree."""
+    flat = field.reshape(-1)
+    flat[band] = np.where(mask.reshape(-1)[band], 1.0, -1.0) * np.maximum(np.abs(distance), 1e-3)
+
+
 def keep_input_surface(field, mask, occupancy, mesh, grid, reach=2):
     """Put the input mesh's own surface into ``field`` wherever the denoising changed nothing, in place.
 
@@ -64,19 +97,21 @@ def keep_input_surface(field, mask, occupancy, mesh, grid, reach=2):
     """
     import open3d as o3d  # imported where used: it needs the system's libusb
 
-    near_change = ndimage.binary_dilation(mask != occupancy, iterations=reach)
-    band = np.flatnonzero((np.abs(field) < 1.5).reshape(-1) & ~near_change.reshape(-1))
-    del near_change
+    band = _unchanged_band(field, mask, occupancy, reach)
     if band.size == 0:
         return
     scene = o3d.t.geometry.RaycastingScene()
     scene.add_triangles(o3d.core.Tensor(np.asarray(mesh.vertices, dtype=np.float32)),
                         o3d.core.Tensor(np.asarray(mesh.faces, dtype=np.uint32)))
     points = grid.to_world(unravel(band, field.shape)).astype(np.float32)
-    distance = scene.compute_distance(o3d.core.Tensor(points)).numpy() / grid.pitch
-    inside = mask.reshape(-1)[band]
-    flat = field.reshape(-1)
-    flat[band] = np.where(inside, 1.0, -1.0) * np.maximum(distance, 1e-3)
+    _put_distances(field, mask, band, scene.compute_distance(o3d.core.Tensor(points)).numpy() / grid.pitch)
+
+
+def keep_input_field(field, mask, occupancy, input_field, reach=2):
+    """`keep_input_surface` for a volume: where the denoising changed nothing, ``field`` takes the
+    input's own ``input_field`` (in voxels, > 0 inside, e.g. `spacing.signed_distance`). In place."""
+    band = _unchanged_band(field, mask, occupancy, reach)
+    _put_distances(field, mask, band, input_field.reshape(-1)[band])
 
 
 def mask_field(mask):

@@ -1,0 +1,150 @@
+"""Volumes in (NIfTI, NRRD, TIFF, .npy): spacing and affine honoured, header kept, labels kept."""
+
+import subprocess
+import sys
+
+import nibabel
+import nrrd
+import numpy as np
+import pytest
+import tifffile
+from scipy.spatial.transform import Rotation
+
+from skelfilter import files, io, pipeline, spacing as voxel_spacing, volume_io
+from skelfilter.errors import InputError
+from skelfilter.params import DenoiseParams, VolumeParams
+
+SIZE = 64.0  # mm, the phantom's field of view
+RADIUS, BUMP = 20.0, 2.0  # a 40 mm ball with a 2 mm half-ball bump on it
+
+
+def phantom(spacing):
+    """The ball with its bump sampled at ``spacing`` (mm): (mask, ball, protruding part of the bump)."""
+    spacing = np.asarray(spacing, dtype=float)
+    shape = np.ceil(SIZE / spacing).astype(int)
+    p = (np.indices(shape).reshape(3, -1).T + 0.5) * spacing - SIZE / 2
+    r = np.linalg.norm(p, axis=1)
+    bump = np.linalg.norm(p - [RADIUS, 0.0, 0.0], axis=1) <= BUMP
+    ball = r <= RADIUS
+    return (ball | bump).reshape(shape), ball.reshape(shape), (bump & (r > RADIUS + 0.75)).reshape(shape)
+
+
+def rotated_affine(spacing):
+    affine = np.eye(4)
+    affine[:3, :3] = Rotation.from_euler("xyz", [20, -35, 50], degrees=True).as_matrix() * spacing
+    affine[:3, 3] = (10.0, -20.0, 30.0)
+    return affine
+
+
+def mostly_gone(mask, bump):
+    """At most a tenth of the bump's protruding voxels left."""
+    return bump.any() and (mask & bump).sum() <= 0.1 * bump.sum()
+
+
+@pytest.mark.parametrize("spacing", [(1.0, 1.0, 1.0), (0.5, 0.5, 0.5), (0.7, 0.7, 0.7), (0.5, 0.5, 1.0),
+                                     (0.5, 0.5, 1.5), (1.5, 0.5, 0.5), (1.0, 1.0, 0.5)])
+def test_a_bump_of_the_same_physical_size_goes_whatever_the_spacing(spacing):
+    mask, ball, bump = phantom(spacing)
+    result = pipeline.denoise_volume(mask, spacing=spacing)
+    assert mostly_gone(result.mask, bump)
+    # The ball stays; what goes is the stair-step shell of its digitization (under a voxel deep).
+    assert (ball & result.mask).sum() >= 0.93 * ball.sum() and result.mask.shape == mask.shape
+
+
+def test_resampling_round_trips_a_mask():
+    mask, _, _ = phantom((0.5, 0.5, 1.5))
+    field, pitch = voxel_spacing.to_isotropic(mask, (0.5, 0.5, 1.5))
+    assert pitch == 0.5 and field.shape == (128, 128, 129)
+    back = voxel_spacing.from_isotropic(field, (0.5, 0.5, 1.5), mask.shape) > 0
+    assert (back != mask).sum() <= 0.002 * mask.sum()
+
+
+@pytest.fixture(scope="module")
+def nifti(tmp_path_factory):
+    spacing = np.array([0.5, 0.5, 1.5])
+    mask, _, _ = phantom(spacing)
+    path = tmp_path_factory.mktemp("nifti") / "phantom.nii.gz"
+    image = nibabel.Nifti1Image(mask.astype(np.uint8), rotated_affine(spacing))
+    image.header["descrip"] = b"skelfilter test phantom"
+    nibabel.save(image, path)
+    return path
+
+
+def test_nifti_out_keeps_header_and_affine_and_mesh_lies_on_the_mask_in_world(nifti, tmp_path):
+    before = nifti.read_bytes()
+    for name in ("out.nii.gz", "out.ply"):
+        r = subprocess.run([sys.executable, "-m", "skelfilter.cli", "denoise", str(nifti), str(tmp_path / name)],
+                           capture_output=True, text=True, timeout=600)
+        assert r.returncode == 0, r.stderr
+    assert nifti.read_bytes() == before
+    source, out = nibabel.load(nifti), nibabel.load(tmp_path / "out.nii.gz")
+    assert np.array_equal(out.affine, source.affine) and out.shape == source.shape
+    assert out.header["descrip"] == source.header["descrip"] and out.get_data_dtype() == np.uint8
+    denoised = np.asarray(out.dataobj) > 0
+    assert mostly_gone(denoised, phantom((0.5, 0.5, 1.5))[2])
+    mesh = io.load_mesh(tmp_path / "out.ply")
+    assert mesh.is_watertight and mesh.volume > 0
+    # The mesh, taken back to voxel indices, lies on the written mask's surface: the half-way level
+    # of the mask's signed distance (mm), sampled where the vertices fall.
+    index = (mesh.vertices - source.affine[:3, 3]) @ np.linalg.inv(source.affine[:3, :3]).T
+    distance = voxel_spacing.signed_distance(denoised, (0.5, 0.5, 1.5))
+    from scipy import ndimage
+    at_vertices = ndimage.map_coordinates(distance, index.T, order=1, mode="nearest")
+    assert np.abs(at_vertices).mean() < 0.25  # half the finest voxel side
+    # ... and on the ball in world coordinates, the stair-steps of the thick slices smoothed away.
+    centre = source.affine[:3, :3] @ (SIZE / 2 / np.array([0.5, 0.5, 1.5]) - 0.5) + source.affine[:3, 3]
+    off = np.linalg.norm(mesh.vertices - centre, axis=1) - RADIUS
+    assert np.abs(off).mean() < 0.5 * np.cbrt(0.5 * 0.5 * 1.5)
+
+
+def test_nrrd_and_tiff_round_trip(tmp_path):
+    mask, _, bump = phantom((0.5, 0.5, 1.0))
+    header = {"space": "left-posterior-superior", "space directions": np.diag([0.5, 0.5, 1.0]),
+              "space origin": np.array([1.0, 2.0, 3.0]), "content": "phantom"}
+    nrrd.write(str(tmp_path / "in.nrrd"), mask.astype(np.uint8), header)
+    tifffile.imwrite(tmp_path / "in.tif", np.ascontiguousarray(mask.astype(np.uint8).T), imagej=True,
+                     resolution=(2.0, 2.0), metadata={"spacing": 1.0, "unit": "mm"})
+    for name in ("in.nrrd", "in.tif"):
+        source = volume_io.load_volume(tmp_path / name)
+        assert np.array_equal(source.data.astype(bool), mask) and np.allclose(source.spacing, (0.5, 0.5, 1.0))
+        out = tmp_path / name.replace("in", "out")
+        files.denoise_file(tmp_path / name, out, DenoiseParams())
+        back = volume_io.load_volume(out)
+        assert np.array_equal(back.affine, source.affine) and back.data.shape == mask.shape
+        assert mostly_gone(back.data.astype(bool), bump)
+    assert nrrd.read_header(str(tmp_path / "out.nrrd"))["content"] == "phantom"
+
+
+def test_a_label_map_keeps_every_other_label(tmp_path):
+    mask, _, bump = phantom((1.0, 1.0, 1.0))
+    labels = np.where(mask, 3, 0).astype(np.int16)
+    labels[:8] = 7  # another structure, touching nothing
+    labels[56:60, 30:34, 30:34] = 5  # and one just outside the ball
+    np.save(tmp_path / "labels.npy", labels)
+    files.denoise_file(tmp_path / "labels.npy", tmp_path / "out.npy", DenoiseParams(), VolumeParams(label=3))
+    out = np.load(tmp_path / "out.npy")
+    assert out.dtype == labels.dtype
+    others = (labels != 3) & (labels != 0)
+    assert np.array_equal(out[others], labels[others])
+    assert not (out[bump] == 3).any() and set(np.unique(out)) == {0, 3, 5, 7}
+
+
+@pytest.mark.parametrize("data, params, message", [
+    (np.arange(27).reshape(3, 3, 3), {}, "holds 27 values, not a mask"),
+    (np.zeros((8, 8, 8)), {}, "no voxel is set"),
+    (np.ones((8, 8, 8)) * 2, {"label": 3}, "label 3 selects no voxel"),
+    (np.zeros((8, 8, 8)), {"iso": 0.5}, "no voxel is at or above the iso level 0.5"),
+    (np.zeros((8, 8)), {}, "a volume must be 3-D"),
+])
+def test_bad_volumes_are_refused(tmp_path, data, params, message):
+    np.save(tmp_path / "v.npy", data)
+    with pytest.raises(InputError, match=message):
+        files.denoise_file(tmp_path / "v.npy", tmp_path / "o.npy", DenoiseParams(), VolumeParams(**params))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["v.npy"]
+
+
+def test_a_mesh_gives_no_volume(tmp_path):
+    import trimesh
+    trimesh.creation.box().export(tmp_path / "cube.ply")
+    with pytest.raises(InputError, match="a mesh input gives a mesh output"):
+        files.denoise_file(tmp_path / "cube.ply", tmp_path / "o.nii.gz", DenoiseParams())
