@@ -45,6 +45,17 @@ def _seconds(text):
     return value
 
 
+def _count(text):
+    """A number of workers: an integer in [1, 1024]."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if not 1 <= value <= 1024:
+        raise argparse.ArgumentTypeError(f"must be an integer in [1, 1024], got {text}")
+    return value
+
+
 def _flag(name):
     return "--" + name.replace("_", "-")
 
@@ -100,6 +111,23 @@ def build_parser():
     noi.add_argument("output", help="noisy output mesh, written atomically")
     _add_filter_flags(noi, ADD_SKELETON_NOISE)
     _add_display_flags(noi)
+
+    bat = sub.add_parser("batch", help="denoise many files on Dask (a local cluster, or a scheduler's)")
+    bat.add_argument("inputs", nargs="+", metavar="INPUT", help="files, folders (their mesh and volume files) "
+                     "or glob patterns; each file is one task")
+    bat.add_argument("--out", required=True, metavar="DIR", help="output folder: each result has its input's "
+                     "name, plus summary.csv and summary.json")
+    bat.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler (tcp://host:8786); "
+                     "default: a local cluster")
+    bat.add_argument("--workers", type=_count, metavar="N", help="local worker processes (default: one per "
+                     "core); numba's threads share the rest of the cores")
+    bat.add_argument("--to", metavar="EXT", help="output format, e.g. ply for meshes of volumes (default: "
+                     "the input's)")
+    bat.add_argument("--force", action="store_true", help="redo files whose output exists (default: skip "
+                     "them; outputs are written atomically, so one that exists is complete)")
+    _add_filter_flags(bat, SKELETON_SALIENCY_DENOISE)
+    _add_volume_flags(bat)
+    _add_display_flags(bat)
 
     run = sub.add_parser("run-script", help="run a MeshLab filter script (.mlx) mixing MeshLab's "
                          "filters and skelfilter's")
@@ -169,6 +197,34 @@ def _denoise(args):
         shape = (f"{summary['vertices']} vertices, {summary['faces']} faces" if "faces" in summary
                  else f"{summary['voxels_changed']} voxels changed")
         print(f"wrote {args.output}: {shape} ({total:.1f} s)", file=sys.stderr)
+
+
+def _batch(args):
+    from . import batch
+
+    params = {p.name: getattr(args, p.name) for p in SKELETON_SALIENCY_DENOISE.parameters
+              if getattr(args, p.name) is not None}
+    params.update({k: getattr(args, k) for k in ("label", "iso", "spacing") if getattr(args, k) is not None})
+    client = None
+    if args.scheduler:
+        from distributed import Client
+
+        try:
+            client = Client(args.scheduler, timeout="20s")
+        except OSError as exc:
+            raise InputError(f"--scheduler {args.scheduler}: cannot connect ({exc})") from None
+    try:
+        rows = batch.denoise_many(args.inputs, args.out, client=client, workers=args.workers, force=args.force,
+                                  to=args.to, report=batch.progress_bar() if args.progress is not False else None,
+                                  **params)
+    finally:
+        if client is not None:
+            client.close()
+    counts = {status: sum(r["status"] == status for r in rows) for status in ("ok", "skipped", "failed")}
+    if args.progress is not False:
+        print(f"skelfilter: {counts['ok']} denoised, {counts['skipped']} skipped (output there), "
+              f"{counts['failed']} failed; see {os.path.join(args.out, 'summary.csv')}", file=sys.stderr)
+    return 1 if counts["failed"] else 0
 
 
 def _noise(args):
@@ -251,8 +307,9 @@ def _terminate(signum, frame):
 def _route_library_messages(quiet):
     """Library warnings and log records become one ``skelfilter: warning: …`` line each, or nothing
     under ``--quiet``."""
-    logging.basicConfig(level=logging.CRITICAL + 1 if quiet else logging.WARNING,
-                        format="skelfilter: warning: %(message)s", force=True)
+    level = logging.CRITICAL + 1 if quiet else logging.WARNING
+    logging.basicConfig(level=level, format="skelfilter: warning: %(message)s", force=True)
+    logging.root.handlers[0].setLevel(level)  # also for records of loggers with lower levels of their own
     if quiet:
         warnings.simplefilter("ignore")
         return
@@ -266,8 +323,8 @@ def main(argv=None):
     previous = signal.signal(signal.SIGTERM, _terminate)
     try:
         signals.start_workers_shielded()
-        {"denoise": _denoise, "noise": _noise, "run-script": _run_script, "export-script": _export_script,
-         "filters": _filters, "compare": _compare}[args.command](args)
+        status = {"denoise": _denoise, "noise": _noise, "run-script": _run_script, "export-script": _export_script,
+                  "filters": _filters, "compare": _compare, "batch": _batch}[args.command](args)
     except SkelfilterError as exc:
         print(f"skelfilter: error: {exc}", file=sys.stderr)
         return 2
@@ -282,7 +339,7 @@ def main(argv=None):
         return 130
     finally:
         signal.signal(signal.SIGTERM, previous)
-    return 0
+    return status or 0
 
 
 if __name__ == "__main__":

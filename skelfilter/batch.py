@@ -1,0 +1,306 @@
+"""Many files at once on Dask distributed: ``skelfilter batch`` and `denoise_many`.
+
+Each input file is one task (:func:`skelfilter.files.denoise_file`) on a Dask cluster: a
+``LocalCluster`` of single-threaded worker processes by default, each running numba on its share of
+the cores, so Dask's processes and numba's threads do not oversubscribe them; or any running Dask
+scheduler, given by address (a SLURM or Kubernetes cluster; see the README). One bad file never
+stops the batch: its error goes into the summary. A task whose worker dies is retried once on
+another worker, then reported. Outputs are written atomically, so an output that exists is
+complete, and a rerun skips it (``force`` redoes it).
+"""
+
+import csv
+import glob
+import json
+import logging
+import os
+import sys
+import time
+from dataclasses import fields
+
+from . import files, io
+from .errors import InputError, SkelfilterError
+from .params import DenoiseParams, VolumeParams, build
+
+SUMMARY_FIELDS = ("input", "output", "status", "error", "seconds", "peak_memory_mib", "voxels_changed")
+# Tests kill the worker that runs the task of the file with this name (SIGKILL, as the OOM killer would).
+_KILL_HOOK_ENV = "_SKELFILTER_BATCH_KILL"
+
+
+def expand_inputs(inputs):
+    """Files, folders (their supported files, not recursing) and glob patterns, as a sorted list of
+    unique paths.
+
+    Raises
+    ------
+    InputError
+        A path or pattern that names nothing, or no supported file at all.
+    """
+    found = []
+    for item in inputs:
+        item = str(item)
+        if os.path.isdir(item):
+            found += [os.path.join(item, name) for name in sorted(os.listdir(item))
+                      if os.path.isfile(os.path.join(item, name)) and _supported(name)]
+        elif os.path.isfile(item):
+            found.append(item)
+        elif glob.has_magic(item):
+            matches = [p for p in sorted(glob.glob(item)) if os.path.isfile(p)]
+            if not matches:
+                raise InputError(f"{item}: the pattern matches no file")
+            found += matches
+        else:
+            raise InputError(f"{item}: no such file or folder")
+    unique = list(dict.fromkeys(os.path.abspath(p) for p in found))
+    if not unique:
+        raise InputError("no input file of a supported kind")
+    return unique
+
+
+def _supported(name):
+    try:
+        files.file_kind(name)
+        return True
+    except InputError:
+        return False
+
+
+def output_paths(inputs, out_dir, to=None):
+    """Where each input's result goes: ``out_dir`` / its name (with the suffix ``to`` if given).
+
+    Raises
+    ------
+    InputError
+        Two inputs that would write the same output, or an output that is an input.
+    """
+    outputs = []
+    for path in inputs:
+        name = os.path.basename(path)
+        if to:
+            name = name[: -len(_suffix(name))] + "." + to.lstrip(".")
+        outputs.append(os.path.abspath(os.path.join(out_dir, name)))
+    seen = {}
+    for path, out in zip(inputs, outputs):
+        if out in seen:
+            raise InputError(f"{path} and {seen[out]} would both write {out}; put them in separate batches")
+        seen[out] = path
+        files.check_paths(path, out)
+        if out in inputs:
+            raise InputError(f"{out}: refusing to overwrite an input file")
+    return outputs
+
+
+def _suffix(name):
+    kind = files.file_kind(name)
+    if kind == "volume":
+        return next(s for s in files.volume_io.VOLUME_SUFFIXES if name.lower().endswith(s))
+    return os.path.splitext(name)[1]
+
+
+def _task(input_path, output_path, params, volume_params, numba_threads):
+    """One file, on a worker: the summary row (never raises for a bad file)."""
+    import numba
+
+    if numba_threads is None:  # a worker of someone else's cluster: the cores its threads leave
+        from distributed import get_worker
+
+        numba_threads = (os.cpu_count() or 1) // max(1, get_worker().state.nthreads)
+    numba.set_num_threads(max(1, min(numba_threads, numba.config.NUMBA_NUM_THREADS)))
+    if os.environ.get(_KILL_HOOK_ENV) == os.path.basename(input_path):
+        os.kill(os.getpid(), 9)
+    _reset_peak_memory()
+    start = time.perf_counter()
+    row = {"input": input_path, "output": output_path, "status": "ok", "error": "", "voxels_changed": ""}
+    try:
+        summary = files.denoise_file(input_path, output_path, params, volume_params)
+        row["voxels_changed"] = summary["voxels_changed"]
+    except (SkelfilterError, MemoryError) as exc:
+        row.update(status="failed", error=str(exc) if str(exc) else "out of memory")
+    except Exception as exc:  # a bug or a library's failure on one file must not stop the batch
+        row.update(status="failed", error=f"{type(exc).__name__}: {exc}")
+    row["seconds"] = round(time.perf_counter() - start, 3)
+    row["peak_memory_mib"] = _peak_memory_mib()
+    return row
+
+
+def _reset_peak_memory():
+    """Restart the process' peak resident memory count (Linux: ``clear_refs`` 5), so that it
+    measures this task alone: a worker runs one task at a time."""
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+    except OSError:
+        pass
+
+
+def _peak_memory_mib():
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return round(int(line.split()[1]) / 1024, 1)
+    except OSError:
+        pass
+    import resource
+
+    return round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)
+
+
+def local_cluster(workers=None):
+    """A ``LocalCluster`` of ``workers`` single-threaded processes (default: one per core), each
+    with numba on ``cores // workers`` threads; a task whose worker dies is retried once.
+
+    Returns
+    -------
+    (distributed.Client, int)
+        The client, and numba's threads per worker.
+    """
+    import dask
+    from distributed import Client, LocalCluster
+
+    cores = os.cpu_count() or 1
+    workers = workers or cores
+    threads = max(1, cores // workers)
+    # One task at a time on a worker (saturation 1), so that a worker's death is blamed on its task
+    # alone, which is retried once (allowed failures 1) and then reported.
+    dask.config.set({"distributed.scheduler.allowed-failures": 1, "distributed.scheduler.worker-saturation": 1.0})
+    # The cluster's own log lines (a restarted worker, a task given up) become rows of the summary.
+    env = {"NUMBA_NUM_THREADS": str(threads), "OMP_NUM_THREADS": str(threads),
+           "DASK_LOGGING__DISTRIBUTED": "critical"}
+    _quiet_distributed()
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                           env=env)
+    return Client(cluster), threads
+
+
+def _quiet_distributed():
+    for name in ["distributed", *logging.root.manager.loggerDict]:
+        if name.startswith("distributed"):
+            logging.getLogger(name).setLevel(logging.CRITICAL)
+
+
+def denoise_many(paths, out_dir, client=None, workers=None, force=False, to=None, report=None, **params):
+    """Denoise many files on Dask; writes ``summary.csv`` and ``summary.json`` into ``out_dir``.
+
+    Parameters
+    ----------
+    paths : list of str
+        Files, folders or glob patterns (`expand_inputs`).
+    out_dir : str
+        Created if missing; each output has its input's name (suffix ``to`` if given).
+    client : distributed.Client, optional
+        A running cluster's client; by default a `local_cluster` of ``workers`` processes, closed
+        at the end.
+    force : bool
+        Redo files whose output exists (by default they are skipped: outputs are written
+        atomically, so one that exists is complete).
+    report : callable, optional
+        Called with each finished row and the counts so far (the CLI's progress bar).
+    **params
+        `DenoiseParams` fields, and `VolumeParams` fields (``label``, ``iso``, ``spacing``).
+
+    Returns
+    -------
+    list of dict
+        One row per input, in input order: ``SUMMARY_FIELDS``; ``status`` is ``ok``, ``skipped`` or
+        ``failed`` (with the error's one line).
+    """
+    volume_names = {f.name for f in fields(VolumeParams)}
+    volume_params = VolumeParams(**{k: v for k, v in params.items() if k in volume_names})
+    denoise_params = build(DenoiseParams, None, **{k: v for k, v in params.items() if k not in volume_names})
+    if os.path.exists(out_dir) and not os.path.isdir(out_dir):
+        raise InputError(f"{out_dir}: exists and is not a folder")
+    inputs = expand_inputs(paths)
+    created = not os.path.isdir(out_dir)
+    os.makedirs(out_dir, exist_ok=True)
+    try:
+        outputs = output_paths(inputs, out_dir, to)
+    except BaseException:
+        if created:
+            os.rmdir(out_dir)
+        raise
+    rows = {}
+    todo = []
+    for path, out in zip(inputs, outputs):
+        if os.path.exists(out) and not force:
+            rows[path] = {"input": path, "output": out, "status": "skipped", "error": "", "seconds": 0.0,
+                          "peak_memory_mib": "", "voxels_changed": ""}
+        else:
+            todo.append((path, out))
+    if todo:
+        rows.update(_run(todo, client, workers, denoise_params, volume_params, report, len(rows)))
+    ordered = [rows[path] for path in inputs]
+    _write_summary(out_dir, ordered)
+    return ordered
+
+
+def _run(todo, client, workers, params, volume_params, report, skipped):
+    from distributed import as_completed
+
+    own = client is None
+    threads = None
+    if own:
+        client, threads = local_cluster(workers)
+    rows, counts = {}, {"done": skipped, "failed": 0, "total": skipped + len(todo)}
+    try:
+        futures = {client.submit(_task, path, out, params, volume_params, threads, pure=False,
+                                 key=f"skelfilter-{i}-{os.path.basename(path)}"): (path, out)
+                   for i, (path, out) in enumerate(todo)}
+        for future in as_completed(futures):
+            path, out = futures[future]
+            try:
+                row = future.result()
+            except Exception as exc:  # the worker died twice (KilledWorker) or the task could not run
+                row = {"input": path, "output": out, "status": "failed", "seconds": "", "peak_memory_mib": "",
+                       "voxels_changed": "", "error": _worker_error(exc)}
+            rows[path] = row
+            counts["done"] += 1
+            counts["failed"] += row["status"] == "failed"
+            if report:
+                report(row, counts)
+    finally:
+        if own:
+            cluster = client.cluster
+            client.close()
+            cluster.close()
+    return rows
+
+
+def _worker_error(exc):
+    if type(exc).__name__ == "KilledWorker":
+        return "its worker died, and again on a second try (out of memory? a crash?)"
+    return f"{type(exc).__name__}: {exc}"
+
+
+def _write_summary(out_dir, rows):
+    def write_csv(tmp):
+        with open(tmp, "w", newline="", encoding="utf-8") as f:
+            writer = csv.DictWriter(f, fieldnames=SUMMARY_FIELDS)
+            writer.writeheader()
+            writer.writerows(rows)
+
+    def write_json(tmp):
+        with open(tmp, "w", encoding="utf-8") as f:
+            json.dump(rows, f, indent=1)
+
+    io.atomic_write(os.path.join(out_dir, "summary.csv"), write_csv)
+    io.atomic_write(os.path.join(out_dir, "summary.json"), write_json)
+
+
+def progress_bar(stream=sys.stderr, width=30):
+    """A `denoise_many` ``report`` that draws a bar on a terminal, else prints a line per file."""
+    terminal = stream.isatty()
+
+    def report(row, counts):
+        done, total = counts["done"], counts["total"]
+        bar = "#" * round(width * done / total) + "-" * (width - round(width * done / total))
+        line = (f"[{bar}] {done}/{total}, {counts['failed']} failed: {os.path.basename(row['input'])} "
+                f"{row['status']}")
+        if terminal:
+            stream.write("\r" + line[:200].ljust(120) + ("\n" if done == total else ""))
+        else:
+            stream.write(line + (f" ({row['error']})" if row["error"] else "") + "\n")
+        stream.flush()
+
+    return report
+

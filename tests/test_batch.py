@@ -1,0 +1,92 @@
+"""skelfilter batch on a Dask LocalCluster: good files done, bad ones reported, a dead worker's task
+retried then reported, a rerun skips what is there."""
+
+import csv
+import hashlib
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import trimesh
+
+from skelfilter import batch, io
+from skelfilter.errors import InputError, ParameterError
+
+
+def digest(path):
+    return hashlib.sha256(open(path, "rb").read()).hexdigest()
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory):
+    root = tmp_path_factory.mktemp("batch-in")
+    rng = np.random.default_rng(0)
+    for i in range(6):
+        mesh = trimesh.creation.icosphere(subdivisions=3) if i % 2 else trimesh.creation.box()
+        mesh = mesh.subdivide() if i % 2 == 0 else mesh
+        mesh.vertices = mesh.vertices + rng.normal(0, 0.01, mesh.vertices.shape)
+        mesh.export(root / f"mesh{i}.{('ply', 'obj', 'stl')[i % 3]}")
+    np.save(root / "ball.npy", (np.indices((40, 40, 40)) - 19.5).__pow__(2).sum(0) < 14**2)
+    (root / "corrupt.ply").write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 99\ngarbage")
+    trimesh.creation.box().export(root / "dies.ply")
+    (root / "notes.txt").write_text("not a mesh: a folder's other files are left out")
+    return root
+
+
+def run_batch(*args, env=None):
+    return subprocess.run([sys.executable, "-m", "skelfilter.cli", "batch", *map(str, args)], capture_output=True,
+                          text=True, timeout=600, env={**os.environ, **(env or {})})
+
+
+def test_batch_reports_failures_and_a_rerun_skips_what_is_done(inputs, tmp_path):
+    out = tmp_path / "out"
+    r = run_batch(inputs, "--out", out, "--workers", "2", "--resolution", "32",
+                  env={"_SKELFILTER_BATCH_KILL": "dies.ply"})
+    assert r.returncode == 1, r.stderr
+    rows = {os.path.basename(row["input"]): row for row in csv.DictReader(open(out / "summary.csv"))}
+    assert rows == {os.path.basename(row["input"]): {k: str(v) for k, v in row.items()}
+                    for row in json.load(open(out / "summary.json"))}
+    assert set(rows) == {f"mesh{i}.{('ply', 'obj', 'stl')[i % 3]}" for i in range(6)} | {
+        "ball.npy", "corrupt.ply", "dies.ply"}
+    assert rows["corrupt.ply"]["status"] == "failed" and "malformed PLY file" in rows["corrupt.ply"]["error"]
+    assert rows["dies.ply"]["status"] == "failed" and "worker died" in rows["dies.ply"]["error"]
+    good = [name for name, row in rows.items() if name not in ("corrupt.ply", "dies.ply")]
+    assert all(rows[name]["status"] == "ok" and float(rows[name]["peak_memory_mib"]) > 0 for name in good)
+    for name in good:  # present and complete
+        if name.endswith(".npy"):
+            assert np.load(out / name).shape == (40, 40, 40)
+        else:
+            assert len(io.load_mesh(out / name).faces) > 0
+    assert not (out / "corrupt.ply").exists() and not (out / "dies.ply").exists()
+    assert sorted(os.listdir(out)) == sorted(good + ["summary.csv", "summary.json"])
+    before = {name: (digest(out / name), os.stat(out / name).st_mtime_ns) for name in good}
+
+    again = run_batch(inputs, "--out", out, "--workers", "2", "--resolution", "32", "--quiet")
+    assert again.returncode == 1 and again.stderr == ""  # the corrupt file fails again
+    rows = {os.path.basename(row["input"]): row for row in csv.DictReader(open(out / "summary.csv"))}
+    assert all(rows[name]["status"] == "skipped" for name in good)
+    assert rows["dies.ply"]["status"] == "ok" and rows["corrupt.ply"]["status"] == "failed"
+    assert {name: (digest(out / name), os.stat(out / name).st_mtime_ns) for name in good} == before
+
+
+def test_python_api_and_bad_batches(inputs, tmp_path):
+    rows = batch.denoise_many([str(inputs / "mesh1.obj"), str(inputs / "ball.npy")], str(tmp_path), workers=1,
+                              resolution=32, to="ply")
+    assert [row["status"] for row in rows] == ["ok", "ok"]
+    assert io.load_mesh(tmp_path / "ball.ply").is_watertight  # a volume to a mesh
+    with pytest.raises(InputError, match="no such file or folder"):
+        batch.denoise_many([str(inputs / "missing.ply")], str(tmp_path))
+    with pytest.raises(InputError, match="the pattern matches no file"):
+        batch.denoise_many([str(inputs / "*.xyz")], str(tmp_path))
+    (tmp_path / "elsewhere").mkdir()
+    trimesh.creation.box().export(tmp_path / "elsewhere" / "mesh0.ply")
+    with pytest.raises(InputError, match="would both write"):
+        batch.denoise_many([str(inputs / "mesh0.ply"), str(tmp_path / "elsewhere")], str(tmp_path / "o"))
+    with pytest.raises(ParameterError, match=r"k must be a number in \[0, 100\]"):
+        batch.denoise_many([str(inputs / "mesh0.ply")], str(tmp_path / "o"), k=-1)
+    with pytest.raises(ParameterError, match="unknown parameter nosuch"):
+        batch.denoise_many([str(inputs / "mesh0.ply")], str(tmp_path / "o"), nosuch=1)
+    assert not (tmp_path / "o").exists()
