@@ -94,13 +94,16 @@ def build_parser():
     sub = parser.add_subparsers(dest="command", required=True)
 
     den = sub.add_parser("denoise", help="denoise a mesh (thesis §8.1.1)")
-    den.add_argument("input", help="input mesh (PLY, OBJ, STL, OFF, GLB) or volume (NIfTI .nii/.nii.gz, "
-                     "NRRD, TIFF stack, .npy); never modified")
+    den.add_argument("input", help="input mesh (PLY, OBJ, STL, OFF, GLB), volume (NIfTI .nii/.nii.gz, "
+                     "NRRD, TIFF stack, .npy) or point cloud (PCD, XYZ, XYZN, PTS, PLY without faces); never "
+                     "modified")
     den.add_argument("output", help="output mesh, or for a volume input a volume (the input's grid, header "
                      "and affine) or a mesh in the scanner's world coordinates; written atomically")
     _add_filter_flags(den, SKELETON_SALIENCY_DENOISE)
     den.add_argument("--close", action="store_true", help="write a new watertight mesh of the denoised "
                      "solid (marching cubes), the same as --output-mesh closed")
+    den.add_argument("--points", action="store_true", help="for a point cloud input: write its points moved "
+                     "onto the denoised surface, with their attributes (PLY, PCD, XYZ), not the mesh")
     den.add_argument("--save-skeleton", metavar="FILE", help="write the skeleton voxels as a PLY point "
                      "cloud with per-point D, rho, sigma_bar, rho_plus (quality = rho_plus)")
     _add_volume_flags(den)
@@ -188,7 +191,8 @@ def _denoise(args):
     params = _params(SKELETON_SALIENCY_DENOISE, args)
     volume = VolumeParams(label=args.label, iso=args.iso, spacing=args.spacing)
     progress = Progress(enabled=args.progress)
-    summary = files.denoise_file(args.input, args.output, params, volume, args.save_skeleton, progress)
+    summary = files.denoise_file(args.input, args.output, params, volume, args.save_skeleton, progress,
+                                 points=args.points)
     if args.progress is None and not progress.enabled:
         for line in progress.notes:
             print(f"skelfilter: {line}", file=sys.stderr)

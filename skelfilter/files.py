@@ -2,60 +2,84 @@
 with ``skelfilter batch``.
 
 The kind of a file comes from its name: a volume (NIfTI, NRRD, TIFF, .npy; see
-:mod:`skelfilter.volume_io`), else a mesh (PLY, OBJ, STL, OFF, GLB). A mesh comes out as a mesh; a
+:mod:`skelfilter.volume_io`), a point cloud (PCD, XYZ, XYZN, PTS, or a PLY without faces; see
+:mod:`skelfilter.point_cloud`), else a mesh (PLY, OBJ, STL, OFF, GLB). A mesh comes out as a mesh; a
 volume as a volume (its format, grid, header and affine) or as a mesh in the scanner's world
-coordinates. Every path is checked before anything is read or computed.
+coordinates; a point cloud as a closed mesh or as its points moved onto it. Every path is checked
+before anything is read or computed.
 """
 
 import os
 
 import numpy as np
 
-from . import io, pipeline, surface, volume_io
+from . import io, pipeline, point_cloud, surface, volume_io
 from .errors import InputError
 from .params import VolumeParams
 from .progress import Progress
 
 
 def file_kind(path):
-    """``volume`` or ``mesh``, from the name.
+    """``volume``, ``points`` (PCD, XYZ, XYZN, PTS) or ``mesh``, from the name alone.
 
     Raises
     ------
     InputError
-        Neither a volume nor a mesh format.
+        None of these formats.
     """
     if volume_io.volume_format(path) is not None:
         return "volume"
     ext = os.path.splitext(str(path))[1].lower().lstrip(".")
     if ext in io.MESH_FORMATS:
         return "mesh"
+    if ext in point_cloud.POINT_FORMATS:
+        return "points"
     raise InputError(f"{path}: unsupported format {ext!r} (meshes: {', '.join(io.MESH_FORMATS)}; volumes: "
-                     f"{', '.join(s.lstrip('.') for s in volume_io.VOLUME_SUFFIXES)})")
+                     f"{', '.join(s.lstrip('.') for s in volume_io.VOLUME_SUFFIXES)}; point clouds: "
+                     f"{', '.join(point_cloud.POINT_FORMATS)})")
 
 
-def check_paths(input_path, output_path, save_skeleton=None):
+def input_kind(path):
+    """`file_kind`, a PLY file without faces being a point cloud."""
+    kind = file_kind(path)
+    return "points" if kind == "mesh" and point_cloud.is_point_cloud(path) else kind
+
+
+# What each kind of input can become.
+OUTPUTS = {"mesh": ("mesh",), "volume": ("volume", "mesh"), "points": ("mesh", "points")}
+
+
+def check_paths(input_path, output_path, save_skeleton=None, points=False):
     """Refuse an impossible pair of paths before anything runs; returns (input kind, output kind).
+
+    ``points``: a point cloud's output is its points moved onto the denoised surface (a PLY output
+    would otherwise be the mesh).
 
     Raises
     ------
     InputError
-        An unsupported format, a volume output for a mesh input, an output that is the input or
+        An unsupported format, an output the input cannot become, an output that is the input or
         sits in a missing folder, a skeleton file that is not a new .ply, or one asked of a volume.
     """
-    kind_in, kind_out = file_kind(input_path), file_kind(output_path)
-    if kind_in == "mesh" and kind_out == "volume":
-        raise InputError(f"{output_path}: a mesh input gives a mesh output (use one of "
-                         f"{', '.join(io.MESH_FORMATS)})")
+    kind_in, kind_out = input_kind(input_path), file_kind(output_path)
+    if points or (kind_in == "points" and kind_out == "points"):
+        if kind_in != "points" or os.path.splitext(str(output_path))[1].lower().lstrip(".") not in \
+                point_cloud.POINT_FORMATS:
+            raise InputError(f"{output_path}: moved points need a point cloud input and a point cloud output "
+                             f"({', '.join(point_cloud.POINT_FORMATS)})")
+        kind_out = "points"
+    if kind_out not in OUTPUTS[kind_in]:
+        raise InputError(f"{output_path}: a {kind_in} input gives a {' or a '.join(OUTPUTS[kind_in])} output")
     io.check_output(output_path, [input_path])
     if save_skeleton:
-        if kind_in == "volume":
+        if kind_in != "mesh":
             raise InputError("--save-skeleton needs a mesh input")
         io.check_output(save_skeleton, {input_path: "input", output_path: "output"}, ("ply",))
     return kind_in, kind_out
 
 
-def denoise_file(input_path, output_path, params, volume_params=None, save_skeleton=None, progress=None):
+def denoise_file(input_path, output_path, params, volume_params=None, save_skeleton=None, progress=None,
+                 points=False):
     """Denoise one file into another.
 
     Parameters
@@ -67,6 +91,9 @@ def denoise_file(input_path, output_path, params, volume_params=None, save_skele
     save_skeleton : str, optional
         A .ply point cloud of the skeleton (mesh input).
     progress : Progress, optional
+    points : bool
+        For a point cloud input: write its points moved onto the denoised surface, attributes kept,
+        rather than the denoised mesh (see `check_paths`).
 
     Returns
     -------
@@ -75,11 +102,13 @@ def denoise_file(input_path, output_path, params, volume_params=None, save_skele
         and ``vertices`` and ``faces`` of a mesh output.
     """
     input_path, output_path = str(input_path), str(output_path)
-    kind_in, kind_out = check_paths(input_path, output_path, save_skeleton)
+    kind_in, kind_out = check_paths(input_path, output_path, save_skeleton, points)
     volume_params = volume_params or VolumeParams()
     progress = progress or Progress(enabled=False)
     if kind_in == "volume":
         return _denoise_volume_file(input_path, output_path, kind_out, params, volume_params, progress)
+    if kind_in == "points":
+        return _denoise_point_file(input_path, output_path, kind_out, params, progress)
     mesh = io.load_mesh(input_path)
     io.check_precision(mesh, output_path)
     out, result, grid = pipeline.denoise_mesh_detailed(mesh, params, progress)
@@ -107,6 +136,22 @@ def _denoise_volume_file(input_path, output_path, kind_out, params, volume_param
         mesh = surface.field_to_world_mesh(result.field, volume.affine)
     io.save_mesh(mesh, output_path, protect=[input_path])
     return {**summary, "vertices": len(mesh.vertices), "faces": len(mesh.faces)}
+
+
+def _denoise_point_file(input_path, output_path, kind_out, params, progress):
+    """A point cloud: its Poisson solid, denoised to a new closed mesh (there is no input mesh to
+    keep), written as a mesh or as the points moved onto it."""
+    cloud = point_cloud.load_points(input_path)
+    with progress.step("Poisson surface"):
+        solid = point_cloud.points_to_mesh(cloud, input_path)
+    out, result, _ = pipeline.denoise_mesh_detailed(solid, params.with_(output_mesh="closed"), progress)
+    summary = {"kind": "points", "voxels_changed": result.voxels_changed}
+    if kind_out == "points":
+        with progress.step("points moved"):
+            point_cloud.save_points(point_cloud.move_points(cloud, out), output_path, protect=[input_path])
+        return summary
+    io.save_mesh(out, output_path, protect=[input_path])
+    return {**summary, "vertices": len(out.vertices), "faces": len(out.faces)}
 
 
 def _save_skeleton(path, result, grid, protect):

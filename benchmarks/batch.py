@@ -1,0 +1,52 @@
+"""Many files: ``skelfilter batch`` on a local Dask cluster against one file after another in one process.
+
+    python benchmarks/batch.py [--files 40] [--resolution 128] [--workers N]
+
+Makes ``--files`` noisy meshes (the embedded fandisk with the thesis' stripes, one seed each), then
+denoises them (1) one after another in this process, numba on every core, and (2) with
+`skelfilter.batch.denoise_many` on a LocalCluster; prints both wall times and the speed-up.
+"""
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+from skelfilter import batch, demo, files, io, pipeline  # noqa: E402
+from skelfilter.params import DenoiseParams, NoiseParams  # noqa: E402
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--files", type=int, default=40)
+    parser.add_argument("--resolution", type=int, default=128)
+    parser.add_argument("--workers", type=int, default=None)
+    args = parser.parse_args()
+    clean = io.load_mesh(demo.sample_path())
+    with tempfile.TemporaryDirectory() as work:
+        inputs = os.path.join(work, "in")
+        os.makedirs(inputs)
+        for seed in range(args.files):
+            noisy = pipeline.noisy_mesh(clean, NoiseParams(resolution=args.resolution, seed=seed))[0]
+            io.save_mesh(noisy, os.path.join(inputs, f"fandisk-{seed:03d}.ply"))
+        params = DenoiseParams(resolution=args.resolution)
+        start = time.perf_counter()
+        for name in sorted(os.listdir(inputs)):
+            files.denoise_file(os.path.join(inputs, name), os.path.join(work, "serial-" + name), params)
+        serial = time.perf_counter() - start
+        start = time.perf_counter()
+        rows = batch.denoise_many([inputs], os.path.join(work, "batch"), workers=args.workers,
+                                  resolution=args.resolution)
+        parallel = time.perf_counter() - start
+    failed = sum(row["status"] != "ok" for row in rows)
+    cores = os.cpu_count()
+    print(f"{args.files} meshes at resolution {args.resolution} on {cores} cores: one after another "
+          f"{serial:.1f} s, batch on a local cluster ({args.workers or cores} workers) {parallel:.1f} s "
+          f"(cluster start included), speed-up {serial / parallel:.2f}x; {failed} failed")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,77 @@
+"""Point clouds in: Poisson solid, denoised like the mesh the points came from; points moved back."""
+
+import numpy as np
+import open3d as o3d
+import pytest
+import trimesh
+from scipy.spatial import cKDTree
+
+from skelfilter import files, io, pipeline, point_cloud
+from skelfilter.errors import InputError
+from skelfilter.params import DenoiseParams, NoiseParams
+
+RESOLUTION = 96
+
+
+@pytest.fixture(scope="module")
+def bumpy(tmp_path_factory):
+    """Fandisk with the thesis' stripes, its grid, and 60000 points sampled on it (no normals) with an
+    'intensity' attribute, in a PLY file."""
+    clean = io.load_mesh(files.os.path.join(files.os.path.dirname(io.__file__), "data", "fandisk.obj"))
+    noisy, _, grid = pipeline.noisy_mesh(clean, NoiseParams(resolution=RESOLUTION, seed=2))
+    points, _ = trimesh.sample.sample_surface_even(noisy, 60000, seed=1)
+    cloud = o3d.t.geometry.PointCloud(o3d.core.Tensor(points.astype(np.float32)))
+    cloud.point.intensity = o3d.core.Tensor(np.arange(len(points), dtype=np.float32)[:, None])
+    path = tmp_path_factory.mktemp("cloud") / "fandisk-points.ply"
+    o3d.t.io.write_point_cloud(str(path), cloud)
+    return noisy, grid, path
+
+
+def chamfer(a, b):
+    pa, pb = a.sample(50000), b.sample(50000)
+    return (cKDTree(pb).query(pa)[0].mean() + cKDTree(pa).query(pb)[0].mean()) / 2
+
+
+def test_a_cloud_gives_the_mesh_routes_result(bumpy, tmp_path):
+    noisy, grid, path = bumpy
+    assert files.input_kind(path) == "points"
+    params = DenoiseParams(resolution=RESOLUTION)
+    files.denoise_file(path, tmp_path / "out.ply", params)
+    out = io.load_mesh(tmp_path / "out.ply")
+    from_mesh = pipeline.denoise_mesh(noisy, params.with_(output_mesh="closed"))
+    assert out.is_watertight and out.volume > 0
+    assert chamfer(out, from_mesh) < grid.pitch  # within a voxel of the mesh route
+    assert chamfer(out, from_mesh) < 0.5 * chamfer(noisy, from_mesh)  # and denoised like it
+
+
+def test_points_moved_onto_the_surface_keep_their_attributes(bumpy, tmp_path):
+    _, grid, path = bumpy
+    files.denoise_file(path, tmp_path / "moved.ply", DenoiseParams(resolution=RESOLUTION), points=True)
+    files.denoise_file(path, tmp_path / "mesh.ply", DenoiseParams(resolution=RESOLUTION))
+    before, after = o3d.t.io.read_point_cloud(str(path)), o3d.t.io.read_point_cloud(str(tmp_path / "moved.ply"))
+    assert np.array_equal(after.point.intensity.numpy(), before.point.intensity.numpy())
+    mesh = io.load_mesh(tmp_path / "mesh.ply")
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(o3d.core.Tensor(mesh.vertices.astype(np.float32)), o3d.core.Tensor(mesh.faces.astype(np.uint32)))
+    distance = scene.compute_distance(after.point.positions).numpy()
+    assert np.percentile(distance, 99) < 0.01 * grid.pitch
+
+
+@pytest.mark.parametrize("points, message", [
+    (np.random.default_rng(0).random((500, 3)), "500 points is too sparse"),
+    (np.c_[np.random.default_rng(0).random((5000, 2)), np.zeros(5000)], "no consistent inside"),
+    (np.random.default_rng(0).random((1000, 3)) * 100, "too sparse: points .* apart on a shape"),
+])
+def test_clouds_that_make_no_solid_are_refused(tmp_path, points, message):
+    o3d.t.io.write_point_cloud(str(tmp_path / "c.pcd"), o3d.t.geometry.PointCloud(
+        o3d.core.Tensor(points.astype(np.float32))))
+    with pytest.raises(InputError, match=message):
+        files.denoise_file(tmp_path / "c.pcd", tmp_path / "o.ply", DenoiseParams(resolution=32))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.pcd"]
+
+
+def test_moved_points_need_a_cloud(tmp_path):
+    trimesh.creation.box().export(tmp_path / "cube.ply")
+    with pytest.raises(InputError, match="moved points need a point cloud input"):
+        files.denoise_file(tmp_path / "cube.ply", tmp_path / "o.ply", DenoiseParams(), points=True)
+    assert point_cloud.is_point_cloud(tmp_path / "cube.ply") is False
