@@ -13,7 +13,11 @@ References
 .. [1] M. Kazhdan, H. Hoppe, "Screened Poisson surface reconstruction", ACM TOG 32(3), 2013.
 """
 
+import contextlib
 import os
+import re
+import sys
+import tempfile
 
 import numpy as np
 import trimesh
@@ -40,7 +44,10 @@ def is_point_cloud(path):
     if ext != "ply" or not os.path.isfile(str(path)):
         return False
     with open(str(path), "rb") as f:
-        header = f.read(1 << 16).split(b"end_header")[0]
+        head = f.read(1 << 16)
+    if b"end_header" not in head:  # a malformed file: the mesh reader says what is wrong
+        return False
+    header = head.split(b"end_header")[0]
     return header.startswith(b"ply") and b"element face" not in header.replace(b"element face 0", b"")
 
 
@@ -57,9 +64,11 @@ def load_points(path):
     path = str(path)
     if not os.path.isfile(path):
         raise InputError(f"{path}: no such file")
-    cloud = o3d.t.io.read_point_cloud(path)
-    if "positions" not in cloud.point:
-        raise InputError(f"{path}: malformed point cloud (no points could be read)")
+    with _output_captured() as said:
+        cloud = o3d.t.io.read_point_cloud(path)
+        complaint = " | ".join(line.strip() for line in _plain(said()).splitlines() if line.strip())[:300]
+    if "positions" not in cloud.point or "fail" in complaint.lower():
+        raise InputError(f"{path}: malformed point cloud ({complaint or 'no points could be read'})")
     points = cloud.point.positions.numpy()
     if len(points) < MIN_POINTS:
         raise InputError(f"{path}: {len(points)} points is too sparse to make a solid of "
@@ -67,6 +76,29 @@ def load_points(path):
     if not np.isfinite(points).all():
         raise InputError(f"{path}: point coordinates contain NaN or infinity")
     return cloud
+
+
+@contextlib.contextmanager
+def _output_captured():
+    """What C libraries (open3d and its PLY reader) print while the block runs, on the standard output
+    or error, goes to a file instead, read by the function yielded: an error stays one line."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    with tempfile.TemporaryFile() as sink:
+        os.dup2(sink.fileno(), 1)
+        os.dup2(sink.fileno(), 2)
+        try:
+            yield lambda: (sink.seek(0), sink.read().decode("utf-8", "replace"))[1]
+        finally:
+            for fd, copy in zip((1, 2), saved):
+                os.dup2(copy, fd)
+                os.close(copy)
+
+
+def _plain(text):
+    """Text without terminal colour codes."""
+    return re.sub(r"\x1b\[[0-9;]*m", "", text)
 
 
 def points_to_mesh(cloud, name="the point cloud"):

@@ -35,7 +35,8 @@ CASES = [
     (["denoise", "{in}", "{out}", "--output-mesh", "cube"], "invalid choice"),
     (["denoise", "{in}", "{out}", "--close", "--output-mesh", "input"], "--close contradicts"),
     (["denoise", "{in}"], "the following arguments are required"),
-    (["denoise", "{in}", "{out}.xyz"], "unsupported format 'xyz'"),
+    (["denoise", "{in}", "{out}.xyz"], "a mesh input gives a mesh output"),
+    (["denoise", "{in}", "{out}.abc"], "unsupported format 'abc'"),
     (["denoise", "{in}", "{in}"], "refusing to overwrite the input file"),
     (["noise", "{in}", "{out}", "--r", "nan"], "r must be a number in"),
     (["noise", "{in}", "{out}", "--r", "inf"], "r must be a number in"),
@@ -84,6 +85,21 @@ CASES = [
     (["export-script", "denoise", "{out}.txt"], "ends in .mlx"),
     (["export-script", "denoise", "{out}.mlx", "--k", "-2"], "k must be a number in [0, 100]"),
     (["filters", "No Such Filter"], "no filter 'No Such Filter'"),
+    # volumes, point clouds, batches
+    (["denoise", "{root}/labels.npy", "{out}.npy"], "holds 3 values, not a mask: choose the shape with --label"),
+    (["denoise", "{root}/labels.npy", "{out}.npy", "--label", "9"], "label 9 selects no voxel"),
+    (["denoise", "{root}/labels.npy", "{out}.npy", "--label", "1", "--iso", "2"], "not allowed with argument"),
+    (["denoise", "{root}/labels.npy", "{out}.npy", "--spacing", "0", "1", "1"], "spacing must be three numbers"),
+    (["denoise", "{root}/labels.npy", "{out}.npy", "--label", "1", "--save-skeleton", "{out}"],
+     "--save-skeleton needs a mesh input"),
+    (["denoise", "{root}/broken.nii.gz", "{out}.nii.gz"], "malformed NIFTI file"),
+    (["denoise", "{in}", "{out}.nii.gz"], "a mesh input gives a mesh output"),
+    (["denoise", "{in}", "{out}", "--points"], "moved points need a point cloud input"),
+    (["denoise", "{root}/sparse.pcd", "{out}"], "is too sparse"),
+    (["batch", "{root}/missing.ply", "--out", "{out}.d"], "no such file or folder"),
+    (["batch", "{in}", "--out", "{out}.d", "--workers", "0"], "must be an integer in [1, 1024]"),
+    (["batch", "{in}", "--out", "{root}/afile"], "exists and is not a folder"),
+    (["batch", "{in}", "--out", "{out}.d", "--k", "nan"], "k must be a number in [0, 100]"),
     # comparison configurations
     (["compare", "{root}/type.toml", "--out", "{out}.d"], "case: must be a list of [[case]] tables, got int"),
     (["compare", "{root}/noisep.toml", "--out", "{out}.d"], "case 1 (c): noise: p must be a number"),
@@ -148,6 +164,10 @@ def files(tmp_path_factory):
     io.save_mesh(small_far, root / "smallfar.ply")
     (root / "adir").mkdir()
     (root / "adir.ply").mkdir()
+    np.save(root / "labels.npy", np.arange(27).reshape(3, 3, 3) % 3)
+    (root / "broken.nii.gz").write_bytes(b"\x1f\x8b not really gzip")
+    (root / "sparse.pcd").write_text("VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 3\n"
+                                     "HEIGHT 1\nPOINTS 3\nDATA ascii\n0 0 0\n1 0 0\n0 1 0\n")
     return root
 
 

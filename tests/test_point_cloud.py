@@ -52,7 +52,8 @@ def test_points_moved_onto_the_surface_keep_their_attributes(bumpy, tmp_path):
     assert np.array_equal(after.point.intensity.numpy(), before.point.intensity.numpy())
     mesh = io.load_mesh(tmp_path / "mesh.ply")
     scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor(mesh.vertices.astype(np.float32)), o3d.core.Tensor(mesh.faces.astype(np.uint32)))
+    scene.add_triangles(o3d.core.Tensor(mesh.vertices.astype(np.float32)),
+                        o3d.core.Tensor(mesh.faces.astype(np.uint32)))
     distance = scene.compute_distance(after.point.positions).numpy()
     assert np.percentile(distance, 99) < 0.01 * grid.pitch
 

@@ -1,7 +1,6 @@
 """A filter script is data from anyone: no MeshLab filter that reads or writes a file runs from one."""
 
 import hashlib
-import os
 import subprocess
 import sys
 
