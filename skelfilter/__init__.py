@@ -6,7 +6,8 @@ The pipeline of the thesis in ``shared/thesis`` (§8.1.1), one module per stage:
              -> reconstruct -> surface
 
 Entry points: :func:`denoise_mesh`, :func:`denoise_volume`, :func:`noisy_mesh`
-and :func:`add_noise`; every stage is a public function of its module and is
+and :func:`add_noise`; :func:`denoise_file` (a mesh, volume or point-cloud file) and
+:func:`denoise_many` (many files on Dask); every stage is a public function of its module and is
 re-exported here. The MeshLab side: :mod:`skelfilter.meshset` (the filters on a
 PyMeshLab MeshSet) and :mod:`skelfilter.meshlab` (.mlx filter scripts).
 """
@@ -27,7 +28,10 @@ _EXPORTS = {
     "saliency": ["derivative_measure", "edt_gradient_velocity", "feature_velocity", "rho_plus",
                  "skeleton_adjacency"],
     "skeleton": ["extended_feature_points", "ie_skeleton", "ima_skeleton"],
-    "surface": ["field_to_mesh", "mask_to_mesh"],
+    "surface": ["field_to_mesh", "field_to_world_mesh", "mask_to_mesh"],
+    "files": ["denoise_file"],
+    "batch": ["denoise_many"],
+    "volume_io": ["load_volume", "save_volume"],
     "voxelize": ["Grid", "voxelize_on_grid"],
 }
 _WHERE = {name: module for module, names in _EXPORTS.items() for name in names}

@@ -18,7 +18,7 @@ from .frame import Frame
 from .io import validate_mesh
 from .memory import check_grid_fits, return_freed_memory
 from .neighbourhood import bounding_box, unravel
-from .params import DenoiseParams, NoiseParams, build
+from .params import DenoiseParams, NoiseParams, VolumeParams, build
 from .progress import Progress
 
 
@@ -206,7 +206,7 @@ def _fill_outside(volume, box, value):
             volume[tuple(index)] = value
 
 
-def denoise_volume(volume, params=None, progress=None, spacing=None, **overrides):
+def denoise_volume(volume, params=None, progress=None, spacing=None, affine=None, **overrides):
     """Denoise a binary volume (thesis §8.1.1).
 
     Parameters
@@ -221,6 +221,10 @@ def denoise_volume(volume, params=None, progress=None, spacing=None, **overrides
         ones of the finest spacing for the pipeline and the result back (:mod:`skelfilter.spacing`);
         voxel counts in the parameters are then in voxels of the finest spacing, and a relative
         threshold stands for the same physical size whatever the spacing.
+    affine : (4, 4) array_like, optional
+        Voxel index to world coordinates (a scanner's volume); gives the spacing (the lengths of its
+        columns) when ``spacing`` is not given. `surface.field_to_world_mesh` (``result.field``, the
+        affine) makes the world-coordinate mesh.
 
     Returns
     -------
@@ -238,6 +242,10 @@ def denoise_volume(volume, params=None, progress=None, spacing=None, **overrides
     if not volume.any():
         raise InputError("the volume is empty: no voxel is set")
     progress = progress or Progress(enabled=False)
+    if spacing is None and affine is not None:
+        spacing = np.linalg.norm(np.asarray(affine, dtype=float)[:3, :3], axis=0)
+    if spacing is not None:
+        spacing = VolumeParams(spacing=tuple(float(s) for s in np.ravel(spacing))).spacing
     resample = spacing is not None and not voxel_spacing.is_isotropic(spacing)
     keep = params.unchanged_surface == "input"
     if resample:
