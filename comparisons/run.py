@@ -210,16 +210,16 @@ def run_compare(config, out_dir, say=None):
     """Run the whole comparison of ``config`` into ``out_dir``; returns the results dict.
 
     Writes ``results.json``, ``metrics.csv``, every result mesh (PLY), the pictures, ``report.html``
-    and ``report.md``. They are made in a hidden folder beside ``out_dir`` and moved into it at the
-    end (replacing files of the same names), so a failed or interrupted run leaves nothing behind.
+    and ``report.md``. They are made in a hidden folder inside ``out_dir`` and moved out of it at
+    the end (replacing files of the same names), so a failed or interrupted run leaves nothing
+    behind (and ``out_dir`` itself goes if the run made it).
     """
     say = say or Reporter(enabled=False)
-    parent = os.path.dirname(os.path.abspath(out_dir))
-    os.makedirs(parent, exist_ok=True)
-    work = tempfile.mkdtemp(dir=parent, prefix=f".{os.path.basename(os.path.abspath(out_dir))}-")
+    created = not os.path.isdir(out_dir)
+    os.makedirs(out_dir, exist_ok=True)
+    work = tempfile.mkdtemp(dir=out_dir, prefix=".skelfilter-work-")
     try:
         results = _run_compare(config, work, say)
-        os.makedirs(out_dir, exist_ok=True)
         for name in os.listdir(work):
             target = os.path.join(out_dir, name)
             if os.path.isdir(target) and not os.path.islink(target):
@@ -227,6 +227,8 @@ def run_compare(config, out_dir, say=None):
             os.replace(os.path.join(work, name), target)
     finally:
         shutil.rmtree(work, ignore_errors=True)
+        if created and not os.listdir(out_dir):
+            os.rmdir(out_dir)
     say(f"wrote {os.path.join(out_dir, 'report.html')} and report.md ({results['wall_seconds']:.0f} s)")
     return results
 

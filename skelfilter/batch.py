@@ -5,12 +5,14 @@ Each input file is one task (:func:`skelfilter.files.denoise_file`) on a Dask cl
 the cores, so Dask's processes and numba's threads do not oversubscribe them; or any running Dask
 scheduler, given by address (a SLURM or Kubernetes cluster; see the README). One bad file never
 stops the batch: its error goes into the summary. A task whose worker dies is retried once on
-another worker, then reported. Outputs are written atomically, so an output that exists is
+another worker, then reported (on someone else's scheduler, as often as its
+``distributed.scheduler.allowed-failures`` says). Outputs are written atomically, so an output that exists is
 complete, and a rerun skips it (``force`` redoes it).
 """
 
 import csv
 import glob
+import importlib
 import json
 import logging
 import os
@@ -28,8 +30,8 @@ _KILL_HOOK_ENV = "_SKELFILTER_BATCH_KILL"
 
 
 def expand_inputs(inputs):
-    """Files, folders (their supported files, not recursing) and glob patterns, as a sorted list of
-    unique paths.
+    """Files, folders and glob patterns (their supported files that are not hidden; folders are not
+    recursed), as a list of unique paths.
 
     Raises
     ------
@@ -45,7 +47,7 @@ def expand_inputs(inputs):
         elif os.path.isfile(item):
             found.append(item)
         elif glob.has_magic(item):
-            matches = [p for p in sorted(glob.glob(item)) if os.path.isfile(p)]
+            matches = [p for p in sorted(glob.glob(item)) if os.path.isfile(p) and _supported(p)]
             if not matches:
                 raise InputError(f"{item}: the pattern matches no file")
             found += matches
@@ -58,6 +60,9 @@ def expand_inputs(inputs):
 
 
 def _supported(name):
+    """A file of a kind skelfilter reads, not hidden (a temporary output, a system file)."""
+    if os.path.basename(name).startswith("."):
+        return False
     try:
         files.file_kind(name)
         return True
@@ -104,7 +109,7 @@ def _task(input_path, output_path, params, volume_params, numba_threads):
     if numba_threads is None:  # a worker of someone else's cluster: the cores its threads leave
         from distributed import get_worker
 
-        numba_threads = (os.cpu_count() or 1) // max(1, get_worker().state.nthreads)
+        numba_threads = usable_cores() // max(1, get_worker().state.nthreads)
     numba.set_num_threads(max(1, min(numba_threads, numba.config.NUMBA_NUM_THREADS)))
     if os.environ.get(_KILL_HOOK_ENV) == os.path.basename(input_path):
         os.kill(os.getpid(), 9)
@@ -158,22 +163,35 @@ def local_cluster(workers=None):
     import dask
     from distributed import Client, LocalCluster
 
-    cores = os.cpu_count() or 1
+    cores = usable_cores()
     workers = workers or cores
     threads = max(1, cores // workers)
+    env = {"NUMBA_NUM_THREADS": str(threads), "OMP_NUM_THREADS": str(threads)}
     # One task at a time on a worker (saturation 1), so that a worker's death is blamed on its task
-    # alone, which is retried once (allowed failures 1) and then reported.
-    dask.config.set({"distributed.scheduler.allowed-failures": 1, "distributed.scheduler.worker-saturation": 1.0})
-    # The cluster's own log lines (a restarted worker, a task given up) become rows of the summary.
-    env = {"NUMBA_NUM_THREADS": str(threads), "OMP_NUM_THREADS": str(threads),
-           "DASK_LOGGING__DISTRIBUTED": "critical"}
-    _quiet_distributed()
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                           env=env)
+    # alone, which is retried once (allowed failures 1) and then reported. The scheduler reads
+    # both when it starts; the workers' log lines (a worker restarted, a task given up) stay out
+    # of the terminal, the summary says what they mean.
+    with dask.config.set({"distributed.scheduler.allowed-failures": 1,
+                          "distributed.scheduler.worker-saturation": 1.0,
+                          "logging.distributed": "critical"}):
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                               env=env)
     return Client(cluster), threads
 
 
-def _quiet_distributed():
+def usable_cores():
+    """The cores this process may run on (its CPU affinity: a SLURM job's or a container's share)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
+
+
+def quiet_distributed():
+    """Silence the log lines of Dask's scheduler and nannies in this process (the CLI's choice: its
+    summary says what they mean)."""
+    importlib.import_module("distributed")  # its import sets its loggers' levels, which this overrides
+
     for name in ["distributed", *logging.root.manager.loggerDict]:
         if name.startswith("distributed"):
             logging.getLogger(name).setLevel(logging.CRITICAL)

@@ -206,6 +206,8 @@ def _denoise(args):
 def _batch(args):
     from . import batch
 
+    batch.quiet_distributed()
+
     params = {p.name: getattr(args, p.name) for p in SKELETON_SALIENCY_DENOISE.parameters
               if getattr(args, p.name) is not None}
     params.update({k: getattr(args, k) for k in ("label", "iso", "spacing") if getattr(args, k) is not None})

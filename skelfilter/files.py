@@ -98,12 +98,15 @@ def denoise_file(input_path, output_path, params, volume_params=None, save_skele
     Returns
     -------
     dict
-        ``kind`` of the input, ``voxels_changed`` (voxels added or removed on the pipeline's grid),
+        ``kind`` of the input, ``voxels_changed`` (voxels added or removed: on the grid a mesh is
+        voxelized on, on a volume's own grid),
         and ``vertices`` and ``faces`` of a mesh output.
     """
     input_path, output_path = str(input_path), str(output_path)
     kind_in, kind_out = check_paths(input_path, output_path, save_skeleton, points)
     volume_params = volume_params or VolumeParams()
+    if kind_in != "volume" and volume_params != VolumeParams():
+        raise InputError(f"{input_path}: --label, --iso and --spacing are for volume inputs")
     progress = progress or Progress(enabled=False)
     if kind_in == "volume":
         return _denoise_volume_file(input_path, output_path, kind_out, params, volume_params, progress)
@@ -126,6 +129,9 @@ def _denoise_volume_file(input_path, output_path, kind_out, params, volume_param
     volume = volume_io.load_volume(input_path, volume_params.spacing)
     mask = volume_io.select_mask(volume.data, volume_params.label, volume_params.iso)
     result = pipeline.denoise_volume(mask, params, progress, spacing=volume.spacing)
+    if not result.mask.any():
+        raise InputError(f"{input_path}: nothing is left after denoising (the shape is thinner than the "
+                         "noise scale); lower --threshold")
     summary = {"kind": "volume", "voxels_changed": result.voxels_changed}
     if kind_out == "volume":
         data = (volume_io.merge_label(volume.data, mask, result.mask, volume_params.label)

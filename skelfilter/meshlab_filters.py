@@ -340,8 +340,11 @@ def run_filters(layers, current, steps, timeout=300):
         with open(os.path.join(work, "steps.json"), "w", encoding="utf-8") as f:
             json.dump([{"name": name, "params": attrs} for name, attrs, _ in steps], f)
         _save_layers(os.path.join(work, "layers.npz"), layers, current)
-        proc = run_child("skelfilter.meshlab_filters", "_child_main", work, timeout,
-                         lambda: f"{_running_step(work, steps)[2]} (pymeshlab's {_running_step(work, steps)[0]})")
+        def running():
+            name, _, where = _running_step(work, steps)
+            return f"{where} (pymeshlab's {name})"
+
+        proc = run_child("skelfilter.meshlab_filters", "_child_main", work, timeout, running)
         error_file = os.path.join(work, "error.json")
         if os.path.exists(error_file):
             with open(error_file, encoding="utf-8") as f:
@@ -350,6 +353,6 @@ def run_filters(layers, current, steps, timeout=300):
             raise SkelfilterError(f"{where}: pymeshlab's {name} failed: {error['error']}")
         if proc.returncode != 0:
             tail = proc.stderr.decode("utf-8", "replace").strip().splitlines()[-3:]
-            raise SkelfilterError(f"{steps[0][2]}: the pymeshlab child process failed (exit status "
+            raise SkelfilterError(f"{running()}: the child process failed (exit status "
                                   f"{proc.returncode}): {' | '.join(tail)}")
         return _load_layers(os.path.join(work, "result.npz"))

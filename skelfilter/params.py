@@ -16,7 +16,10 @@ take the preset's value.
 """
 
 import math
+import numbers
 from dataclasses import dataclass, field, fields, replace
+
+import numpy as np
 
 from .errors import ParameterError
 
@@ -370,7 +373,7 @@ class VolumeParams:
             raise ParameterError("give label or iso, not both")
         if self.spacing is not None:
             spacing = tuple(self.spacing)
-            if len(spacing) != 3 or not all(isinstance(s, (int, float)) and not isinstance(s, bool)
+            if len(spacing) != 3 or not all(isinstance(s, numbers.Real) and not isinstance(s, (bool, np.bool_))
                                             and math.isfinite(s) and 0 < s <= 1e6 for s in spacing):
                 raise ParameterError(f"spacing must be three numbers in (0, 1e6], got {self.spacing!r}")
             object.__setattr__(self, "spacing", tuple(float(s) for s in spacing))

@@ -49,7 +49,7 @@ class DenoiseResult:
     field: np.ndarray  # > 0 inside; its 0-level is the sub-voxel surface
     stages: dict = field(default_factory=dict)  # "foreground"/"background" -> StageResult
     timings: dict = field(default_factory=dict)
-    voxels_changed: int = 0  # voxels added or removed on the pipeline's grid
+    voxels_changed: int = 0  # voxels added or removed: on the voxel grid of a mesh, on a volume's own
 
 
 def resolve_params(params=None, **overrides):
@@ -275,7 +275,7 @@ def _denoise_cubic(volume, params, progress):
     params = params.with_(resolution=max(extent, 16))
     pad = params.padding_voxels
     padded_shape = tuple(s + 2 * pad for s in volume.shape)
-    check_grid_fits(padded_shape, padding=pad, padding_from="--threshold (half of it pads the grid)")
+    check_grid_fits(padded_shape, padding=pad, padding_from=_padding_from(params))
     return_freed_memory()
     padded = np.pad(volume, pad)
     result = denoise_padded(padded, params, progress)
@@ -283,6 +283,11 @@ def _denoise_cubic(volume, params, progress):
     result.mask = np.ascontiguousarray(result.mask[inner])
     result.field = np.ascontiguousarray(result.field[inner])
     return result
+
+
+def _padding_from(params):
+    """The flags that set the padding, for the memory advice."""
+    return "--padding" if params.padding is not None else "--threshold (half of it pads the grid)"
 
 
 def _voxelize(mesh, resolution, padding, progress, padding_from, required=True):
@@ -341,8 +346,7 @@ def _denoise_unit(mesh, params, progress):
     if params.resolution is None:
         params = params.with_(resolution=_fitting_resolution(mesh, params))
         progress.note(f"resolution {params.resolution} voxels (from the mesh's mean edge length)")
-    padding_from = "--padding" if params.padding is not None else "--threshold (half of it pads the grid)"
-    occupancy, grid = _voxelize(mesh, params.resolution, params.padding_voxels, progress, padding_from,
+    occupancy, grid = _voxelize(mesh, params.resolution, params.padding_voxels, progress, _padding_from(params),
                                 required=params.output_mesh == "closed")
     output = params.output_mesh
     skipped = None  # why the voxel stage does not run

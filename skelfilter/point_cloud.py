@@ -27,7 +27,7 @@ from .errors import InputError
 # File suffixes read as point clouds; a PLY is one when it has no faces.
 POINT_FORMATS = ("ply", "pcd", "xyz", "xyzn", "pts")
 MIN_POINTS = 1000
-# The mean nearest-neighbour spacing must stay under the longest side over this.
+# The median nearest-neighbour spacing (duplicates removed) must stay under the longest side over this.
 MAX_SPACING_RATIO = 60
 DEPTH_RANGE = (6, 10)
 # Neighbours of a point for its normal and for orienting the normals.
@@ -118,16 +118,18 @@ def points_to_mesh(cloud, name="the point cloud"):
 
     points = cloud.point.positions.numpy().astype(np.float64)
     legacy = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
-    size = float(np.ptp(points, axis=0).max())
-    spacing = float(np.mean(legacy.compute_nearest_neighbor_distance()))
-    if not spacing * MAX_SPACING_RATIO <= size:
-        raise InputError(f"{name} is too sparse: points {spacing:.3g} apart on a shape {size:.3g} across "
-                         f"(at most 1/{MAX_SPACING_RATIO} of it needed)")
+    if "normals" in cloud.point:
+        legacy.normals = o3d.utility.Vector3dVector(cloud.point.normals.numpy().astype(np.float64))
+    legacy = legacy.remove_duplicated_points()
+    size = float(np.ptp(np.asarray(legacy.points), axis=0).max())
+    spacing = float(np.median(legacy.compute_nearest_neighbor_distance())) if len(legacy.points) > 1 else 0.0
+    if len(legacy.points) < MIN_POINTS or not 0 < spacing * MAX_SPACING_RATIO <= size:
+        raise InputError(f"{name} is too sparse: {len(legacy.points)} distinct points, {spacing:.3g} apart on a "
+                         f"shape {size:.3g} across (at least {MIN_POINTS}, at most 1/{MAX_SPACING_RATIO} of "
+                         "it apart, needed)")
     depth = int(np.clip(np.ceil(np.log2(size / spacing)), *DEPTH_RANGE))
     try:
-        if "normals" in cloud.point:
-            legacy.normals = o3d.utility.Vector3dVector(cloud.point.normals.numpy().astype(np.float64))
-        else:
+        if not legacy.has_normals():
             # 50 neighbours for both: fewer flipped patches on sharp, bumpy scans (measured on fandisk
             # with stripes: Poisson surface 0.51 voxels from the mesh the points came from, 2.6 with 20/15).
             legacy.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(knn=NEIGHBOURS))

@@ -12,7 +12,8 @@ import numpy as np
 from scipy import ndimage
 
 
-def is_isotropic(spacing, tolerance=1e-6):
+def is_isotropic(spacing, tolerance=1e-4):
+    """Equal sides to ``tolerance`` (relative): headers store spacings in float32 and rounded."""
     spacing = np.asarray(spacing, dtype=float)
     return bool(np.ptp(spacing) <= tolerance * spacing.max())
 

@@ -104,10 +104,19 @@ def _read_nifti(path):
     return Volume(np.asanyarray(image.dataobj), np.asarray(image.affine, dtype=float), "nifti", image.header)
 
 
+# NRRD spaces whose first two axes point the other way from NIfTI's right-anterior-superior.
+_LPS_SPACES = ("left-posterior-superior", "lps")
+_RAS_SPACES = ("right-anterior-superior", "ras")
+
+
 def _read_nrrd(path):
     import nrrd
 
     data, header = nrrd.read(path)
+    space = str(header.get("space", "")).lower()
+    if space and space not in _LPS_SPACES + _RAS_SPACES:
+        raise InputError(f"{path}: NRRD space {header['space']!r} is not supported (use "
+                         "right-anterior-superior or left-posterior-superior)")
     affine = np.eye(4)
     directions = header.get("space directions")
     if directions is not None:
@@ -118,6 +127,8 @@ def _read_nrrd(path):
         affine[:3, :3] = np.diag(np.asarray(header["spacings"], dtype=float)[:3])
     if "space origin" in header:
         affine[:3, 3] = np.asarray(header["space origin"], dtype=float)
+    if space in _LPS_SPACES:  # world coordinates are RAS, as NIfTI's, whatever the file's convention
+        affine = np.diag([-1.0, -1.0, 1.0, 1.0]) @ affine
     return Volume(data, affine, "nrrd", header)
 
 
@@ -129,8 +140,10 @@ def _read_tiff(path):
         meta = dict(tif.imagej_metadata or {})
         page = tif.pages[0]
         resolution = [page.tags.get(name) for name in ("XResolution", "YResolution")]
-    xy = [(tag.value[1] / tag.value[0]) if tag is not None and tag.value[0] else 1.0 for tag in resolution]
-    spacing = (xy[0], xy[1], float(meta.get("spacing", 1.0)))
+    spacing = (1.0, 1.0, 1.0)
+    if meta:  # ImageJ stores the pixel size as the resolution; other TIFFs hold dots per inch
+        xy = [(tag.value[1] / tag.value[0]) if tag is not None and tag.value[0] else 1.0 for tag in resolution]
+        spacing = (xy[0], xy[1], float(meta.get("spacing", 1.0)))
     return Volume(np.ascontiguousarray(np.transpose(pages)), np.diag([*spacing, 1.0]), "tiff", meta)
 
 
@@ -192,6 +205,8 @@ def _write_nifti(tmp, like, data):
     header = like.header.copy() if like.format == "nifti" else None
     image = nibabel.Nifti1Image(data, like.affine, header=header)
     image.header.set_data_dtype(data.dtype)
+    image.header.set_slope_inter(1.0, 0.0)  # the values as they are
+    image.header["cal_min"], image.header["cal_max"] = float(data.min()), float(data.max())
     # nibabel picks the file type from the name; the temporary file ends like the output.
     nibabel.save(image, tmp)
 
@@ -204,7 +219,14 @@ def _write_nrrd(tmp, like, data):
         "space origin": like.affine[:3, 3]}
     for key in ("type", "dimension", "sizes"):  # taken from the data
         header.pop(key, None)
+    for key in _NRRD_PER_AXIS:  # a 4-D file with one volume was read as 3-D
+        if key in header and len(header[key]) > data.ndim:
+            header[key] = header[key][:data.ndim]
     nrrd.write(tmp, data, header)
+
+
+_NRRD_PER_AXIS = ("kinds", "labels", "units", "space directions", "centerings", "thicknesses", "spacings",
+                  "axis mins", "axis maxs")
 
 
 def _write_tiff(tmp, like, data):
@@ -212,7 +234,8 @@ def _write_tiff(tmp, like, data):
 
     spacing = like.spacing
     meta = dict(like.header) if like.format == "tiff" else {}
-    meta["spacing"] = float(spacing[2])
+    meta.pop("min", None), meta.pop("max", None)  # the input's display range, not the output's
+    meta.update(spacing=float(spacing[2]), axes="ZYX")
     imagej = data.dtype in (np.uint8, np.uint16, np.float32)
     tifffile.imwrite(tmp, np.ascontiguousarray(np.transpose(data)), imagej=imagej,
                      resolution=(1.0 / spacing[0], 1.0 / spacing[1]),

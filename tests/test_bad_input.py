@@ -96,6 +96,8 @@ CASES = [
     (["denoise", "{in}", "{out}.nii.gz"], "a mesh input gives a mesh output"),
     (["denoise", "{in}", "{out}", "--points"], "moved points need a point cloud input"),
     (["denoise", "{root}/sparse.pcd", "{out}"], "is too sparse"),
+    (["denoise", "{in}", "{out}", "--label", "2"],
+     "--label, --iso and --spacing are for volume inputs"),
     (["batch", "{root}/missing.ply", "--out", "{out}.d"], "no such file or folder"),
     (["batch", "{in}", "--out", "{out}.d", "--workers", "0"], "must be an integer in [1, 1024]"),
     (["batch", "{in}", "--out", "{root}/afile"], "exists and is not a folder"),
@@ -110,7 +112,8 @@ CASES = [
 
 
 def _script(filter_name, params=""):
-    return f'<!DOCTYPE FilterScript>\n<FilterScript>\n <filter name="{filter_name}">\n{params} </filter>\n</FilterScript>\n'
+    return (f'<!DOCTYPE FilterScript>\n<FilterScript>\n <filter name="{filter_name}">\n{params} </filter>\n'
+            '</FilterScript>\n')
 
 
 def _config(case, method='name = "s"\nkind = "skelfilter"', run=""):

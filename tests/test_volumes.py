@@ -115,6 +115,30 @@ def test_nrrd_and_tiff_round_trip(tmp_path):
     assert nrrd.read_header(str(tmp_path / "out.nrrd"))["content"] == "phantom"
 
 
+def test_world_coordinates_are_ras_whatever_the_files_convention(tmp_path):
+    """A Slicer NRRD (left-posterior-superior) made into a NIfTI and a mesh: both in RAS."""
+    mask, _, _ = phantom((1.0, 1.0, 1.0))
+    lps = np.diag([1.0, 1.0, 1.0])
+    nrrd.write(str(tmp_path / "lps.nrrd"), mask.astype(np.uint8),
+               {"space": "left-posterior-superior", "space directions": lps, "space origin": np.array([5.0, 6.0, 7.0])})
+    files.denoise_file(tmp_path / "lps.nrrd", tmp_path / "out.nii.gz", DenoiseParams())
+    files.denoise_file(tmp_path / "lps.nrrd", tmp_path / "out.ply", DenoiseParams())
+    assert np.allclose(nibabel.load(tmp_path / "out.nii.gz").affine,
+                       [[-1, 0, 0, -5], [0, -1, 0, -6], [0, 0, 1, 7], [0, 0, 0, 1]])
+    centre = np.array([-5.0, -6.0, 7.0]) + [-31.5, -31.5, 31.5]  # voxel (31.5, 31.5, 31.5) in RAS
+    assert np.allclose(io.load_mesh(tmp_path / "out.ply").bounds.mean(axis=0), centre + [-0.5 * BUMP, 0, 0],
+                       atol=1.0)
+    nrrd.write(str(tmp_path / "odd.nrrd"), mask.astype(np.uint8), {"space": "scanner-xyz"})
+    with pytest.raises(InputError, match="NRRD space 'scanner-xyz' is not supported"):
+        volume_io.load_volume(tmp_path / "odd.nrrd")
+
+
+def test_a_plain_tiff_has_unit_spacing(tmp_path):
+    """Not ImageJ's: its resolution is dots per inch, not a voxel size."""
+    tifffile.imwrite(tmp_path / "plain.tif", np.zeros((4, 5, 6), np.uint8), resolution=(72.0, 72.0))
+    assert np.array_equal(volume_io.load_volume(tmp_path / "plain.tif").spacing, [1.0, 1.0, 1.0])
+
+
 def test_a_label_map_keeps_every_other_label(tmp_path):
     mask, _, bump = phantom((1.0, 1.0, 1.0))
     labels = np.where(mask, 3, 0).astype(np.int16)
