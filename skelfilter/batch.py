@@ -7,7 +7,8 @@ scheduler, given by address (a SLURM or Kubernetes cluster; see the README). One
 stops the batch: its error goes into the summary. A task whose worker dies is retried once on
 another worker, then reported (on someone else's scheduler, as often as its
 ``distributed.scheduler.allowed-failures`` says). Outputs are written atomically, so an output that exists is
-complete, and a rerun skips it (``force`` redoes it).
+complete, and a rerun skips it (``force`` redoes it); a rerun also leaves alone a file that could
+not be used (an ``InputError``) and has not changed since, and tries again everything else.
 """
 
 import csv
@@ -24,7 +25,8 @@ from . import files, io
 from .errors import InputError, SkelfilterError
 from .params import DenoiseParams, VolumeParams, build
 
-SUMMARY_FIELDS = ("input", "output", "status", "error", "seconds", "peak_memory_mib", "voxels_changed")
+SUMMARY_FIELDS = ("input", "output", "status", "error", "seconds", "peak_memory_mib", "voxels_changed",
+                  "bad_input")
 # Tests kill the worker that runs the task of the file with this name (SIGKILL, as the OOM killer would).
 _KILL_HOOK_ENV = "_SKELFILTER_BATCH_KILL"
 
@@ -115,10 +117,13 @@ def _task(input_path, output_path, params, volume_params, numba_threads):
         os.kill(os.getpid(), 9)
     _reset_peak_memory()
     start = time.perf_counter()
-    row = {"input": input_path, "output": output_path, "status": "ok", "error": "", "voxels_changed": ""}
+    row = {"input": input_path, "output": output_path, "status": "ok", "error": "", "voxels_changed": "",
+           "bad_input": ""}
     try:
         summary = files.denoise_file(input_path, output_path, params, volume_params)
         row["voxels_changed"] = summary["voxels_changed"]
+    except InputError as exc:  # the file itself: a rerun leaves it alone while it stays the same
+        row.update(status="failed", error=str(exc), bad_input=_stamp(input_path))
     except (SkelfilterError, MemoryError) as exc:
         row.update(status="failed", error=str(exc) if str(exc) else "out of memory")
     except Exception as exc:  # a bug or a library's failure on one file must not stop the batch
@@ -211,7 +216,8 @@ def denoise_many(paths, out_dir, client=None, workers=None, force=False, to=None
         at the end.
     force : bool
         Redo files whose output exists (by default they are skipped: outputs are written
-        atomically, so one that exists is complete).
+        atomically, so one that exists is complete), and files the last run found unusable and
+        that have not changed since (by default their failure is carried over).
     report : callable, optional
         Called with each finished row and the counts so far (the CLI's progress bar).
     **params
@@ -239,10 +245,15 @@ def denoise_many(paths, out_dir, client=None, workers=None, force=False, to=None
         raise
     rows = {}
     todo = []
+    before = {} if force else _previous_bad_inputs(out_dir)
     for path, out in zip(inputs, outputs):
-        if os.path.exists(out) and not force:
+        if force:
+            todo.append((path, out))
+        elif os.path.exists(out):
             rows[path] = {"input": path, "output": out, "status": "skipped", "error": "", "seconds": 0.0,
-                          "peak_memory_mib": "", "voxels_changed": ""}
+                          "peak_memory_mib": "", "voxels_changed": "", "bad_input": ""}
+        elif path in before and before[path]["bad_input"] == _stamp(path):
+            rows[path] = {**before[path], "seconds": 0.0, "peak_memory_mib": "", "voxels_changed": ""}
         else:
             todo.append((path, out))
     if todo:
@@ -250,6 +261,22 @@ def denoise_many(paths, out_dir, client=None, workers=None, force=False, to=None
     ordered = [rows[path] for path in inputs]
     _write_summary(out_dir, ordered)
     return ordered
+
+
+def _stamp(path):
+    """Size and modification time of a file: whether it changed since a run."""
+    stat = os.stat(path)
+    return f"{stat.st_size}:{stat.st_mtime_ns}"
+
+
+def _previous_bad_inputs(out_dir):
+    """The rows of the last summary in ``out_dir`` whose input could not be used (by input path)."""
+    try:
+        with open(os.path.join(out_dir, "summary.json"), encoding="utf-8") as f:
+            rows = json.load(f)
+        return {row["input"]: row for row in rows if row.get("status") == "failed" and row.get("bad_input")}
+    except (OSError, ValueError, TypeError, KeyError, AttributeError):
+        return {}
 
 
 def _run(todo, client, workers, params, volume_params, report, skipped):
@@ -270,7 +297,7 @@ def _run(todo, client, workers, params, volume_params, report, skipped):
                 row = future.result()
             except Exception as exc:  # the worker died twice (KilledWorker) or the task could not run
                 row = {"input": path, "output": out, "status": "failed", "seconds": "", "peak_memory_mib": "",
-                       "voxels_changed": "", "error": _worker_error(exc)}
+                       "voxels_changed": "", "error": _worker_error(exc), "bad_input": ""}
             rows[path] = row
             counts["done"] += 1
             counts["failed"] += row["status"] == "failed"

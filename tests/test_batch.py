@@ -65,11 +65,21 @@ def test_batch_reports_failures_and_a_rerun_skips_what_is_done(inputs, tmp_path)
     before = {name: (digest(out / name), os.stat(out / name).st_mtime_ns) for name in good}
 
     again = run_batch(inputs, "--out", out, "--workers", "2", "--resolution", "32", "--quiet")
-    assert again.returncode == 1 and again.stderr == ""  # the corrupt file fails again
+    assert again.returncode == 1 and again.stderr == ""  # the corrupt file is still reported
     rows = {os.path.basename(row["input"]): row for row in csv.DictReader(open(out / "summary.csv"))}
     assert all(rows[name]["status"] == "skipped" for name in good)
-    assert rows["dies.ply"]["status"] == "ok" and rows["corrupt.ply"]["status"] == "failed"
+    assert rows["dies.ply"]["status"] == "ok"  # a dead worker is worth another try
+    assert rows["corrupt.ply"]["status"] == "failed" and rows["corrupt.ply"]["seconds"] == "0.0"  # carried over
     assert {name: (digest(out / name), os.stat(out / name).st_mtime_ns) for name in good} == before
+
+    # A third run has nothing left to do: no cluster, nothing written but the summary.
+    third = run_batch(inputs, "--out", out, "--resolution", "32")
+    rows = {os.path.basename(row["input"]): row for row in csv.DictReader(open(out / "summary.csv"))}
+    assert third.returncode == 1 and "0 denoised, 8 skipped" in third.stderr
+    assert [row["status"] for row in rows.values()].count("skipped") == 8
+    (inputs / "corrupt.ply").touch()  # changed: tried again
+    fourth = run_batch(inputs, "--out", out, "--resolution", "32", "--workers", "1")
+    assert fourth.returncode == 1 and "0 denoised, 8 skipped (output there), 1 failed" in fourth.stderr
 
 
 def test_python_api_and_bad_batches(inputs, tmp_path):
