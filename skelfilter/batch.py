@@ -120,7 +120,9 @@ def _task(input_path, output_path, params, volume_params, numba_threads):
     row = {"input": input_path, "output": output_path, "status": "ok", "error": "", "voxels_changed": "",
            "bad_input": ""}
     try:
-        summary = files.denoise_file(input_path, output_path, params, volume_params)
+        # --label, --iso and --spacing are for the volumes of a mixed batch.
+        volume = volume_params if files.input_kind(input_path) == "volume" else None
+        summary = files.denoise_file(input_path, output_path, params, volume)
         row["voxels_changed"] = summary["voxels_changed"]
     except InputError as exc:  # the file itself: a rerun leaves it alone while it stays the same
         row.update(status="failed", error=str(exc), bad_input=_stamp(input_path))

@@ -116,8 +116,8 @@ def build_parser():
     _add_display_flags(noi)
 
     bat = sub.add_parser("batch", help="denoise many files on Dask (a local cluster, or a scheduler's)")
-    bat.add_argument("inputs", nargs="+", metavar="INPUT", help="files, folders (their mesh and volume files) "
-                     "or glob patterns; each file is one task")
+    bat.add_argument("inputs", nargs="+", metavar="INPUT", help="files, folders (their mesh, volume and "
+                     "point-cloud files) or glob patterns; each file is one task")
     bat.add_argument("--out", required=True, metavar="DIR", help="output folder: each result has its input's "
                      "name, plus summary.csv and summary.json")
     bat.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler (tcp://host:8786); "
