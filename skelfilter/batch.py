@@ -11,18 +11,21 @@ complete, and a rerun skips it (``force`` redoes it); a rerun also leaves alone 
 not be used (an ``InputError``) and has not changed since, and tries again everything else.
 """
 
+import contextlib
 import csv
 import glob
 import importlib
 import json
 import logging
 import os
+import resource
 import sys
 import time
 from dataclasses import fields
 
 from . import files, io
 from .errors import InputError, SkelfilterError
+from .memory import read_field
 from .params import DenoiseParams, VolumeParams, build
 
 SUMMARY_FIELDS = ("input", "output", "status", "error", "seconds", "peak_memory_mib", "voxels_changed",
@@ -84,7 +87,7 @@ def output_paths(inputs, out_dir, to=None):
     for path in inputs:
         name = os.path.basename(path)
         if to:
-            name = name[: -len(_suffix(name))] + "." + to.lstrip(".")
+            name = name[: -len(io.file_suffix(name))] + "." + to.lstrip(".")
         outputs.append(os.path.abspath(os.path.join(out_dir, name)))
     seen = {}
     for path, out in zip(inputs, outputs):
@@ -95,13 +98,6 @@ def output_paths(inputs, out_dir, to=None):
         if out in inputs:
             raise InputError(f"{out}: refusing to overwrite an input file")
     return outputs
-
-
-def _suffix(name):
-    kind = files.file_kind(name)
-    if kind == "volume":
-        return next(s for s in files.volume_io.VOLUME_SUFFIXES if name.lower().endswith(s))
-    return os.path.splitext(name)[1]
 
 
 def _task(input_path, output_path, params, volume_params, numba_threads):
@@ -137,24 +133,16 @@ def _task(input_path, output_path, params, volume_params, numba_threads):
 
 def _reset_peak_memory():
     """Restart the process' peak resident memory count (Linux: ``clear_refs`` 5), so that it
-    measures this task alone: a worker runs one task at a time."""
-    try:
-        with open("/proc/self/clear_refs", "w") as f:
-            f.write("5")
-    except OSError:
-        pass
+    measures this task alone: a worker runs one task at a time. Elsewhere the count is the
+    process' since it started."""
+    with contextlib.suppress(OSError), open("/proc/self/clear_refs", "w") as f:
+        f.write("5")
 
 
 def _peak_memory_mib():
-    try:
-        with open("/proc/self/status") as f:
-            for line in f:
-                if line.startswith("VmHWM:"):
-                    return round(int(line.split()[1]) / 1024, 1)
-    except OSError:
-        pass
-    import resource
-
+    peak = read_field("/proc/self/status", "VmHWM")  # kB
+    if peak is not None:
+        return round(int(peak) / 1024, 1)
     return round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)
 
 

@@ -8,6 +8,7 @@ import numpy as np
 import trimesh
 
 from .errors import InputError
+from .memory import read_field
 
 MESH_FORMATS = ("ply", "obj", "stl", "off", "glb")
 
@@ -125,19 +126,15 @@ def _new_file_mode(path):
 def _umask():
     """The process' umask, read without changing it where Linux shows it (os.umask sets it to read
     it, for every thread at once)."""
-    try:
-        with open("/proc/self/status") as f:
-            for line in f:
-                if line.startswith("Umask:"):
-                    return int(line.split()[1], 8)
-    except OSError:
-        pass
+    value = read_field("/proc/self/status", "Umask")
+    if value is not None:
+        return int(value, 8)
     mask = os.umask(0o022)
     os.umask(mask)
     return mask
 
 
-def _suffix(path):
+def file_suffix(path):
     """The file name's suffix, two of them for a compressed file (``.nii.gz``): writers that choose
     the format by the name see the output's."""
     stem, last = os.path.splitext(path)
@@ -152,7 +149,7 @@ def atomic_write(path, write, protect=()):
     path = str(path)
     check_output(path, protect)
     directory = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(dir=directory, prefix=".skelfilter-", suffix=_suffix(path))
+    fd, tmp = tempfile.mkstemp(dir=directory, prefix=".skelfilter-", suffix=file_suffix(path))
     os.close(fd)
     try:
         write(tmp)

@@ -33,28 +33,36 @@ def available_bytes():
 
 def _system_available():
     """Linux MemAvailable; total RAM elsewhere."""
-    value = _proc_field("/proc/meminfo", "MemAvailable:")
+    value = _proc_field("/proc/meminfo", "MemAvailable")
     if value is not None:
         return value
     return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
 
 
-def _proc_field(path, name):
-    """A ``name: N kB`` line of a /proc file, in bytes (None when absent)."""
+def read_field(path, name):
+    """The value of the line ``name: value ...`` or ``name value`` of a Linux /proc or /sys file, as
+    text; None when the file or the line is missing (not Linux, no such cgroup)."""
     try:
         with open(path) as f:
             for line in f:
-                if line.startswith(name):
-                    return int(line.split()[1]) * 1024
+                key, *value = line.split()
+                if key.rstrip(":") == name and value:
+                    return value[0]
     except OSError:
-        pass
+        return None
     return None
+
+
+def _proc_field(path, name):
+    """A ``name: N kB`` line of a /proc file, in bytes (None when absent)."""
+    value = read_field(path, name)
+    return None if value is None else int(value) * 1024
 
 
 def _rlimit_left():
     """What RLIMIT_AS and RLIMIT_DATA leave beyond the process' current virtual and data size."""
     left = _UNLIMITED
-    for limit, used_field in ((resource.RLIMIT_AS, "VmSize:"), (resource.RLIMIT_DATA, "VmData:")):
+    for limit, used_field in ((resource.RLIMIT_AS, "VmSize"), (resource.RLIMIT_DATA, "VmData")):
         soft = resource.getrlimit(limit)[0]
         if soft != resource.RLIM_INFINITY:
             left = min(left, soft - (_proc_field("/proc/self/status", used_field) or 0))
@@ -72,15 +80,8 @@ def _read_number(path):
 
 def _reclaimable(stat_path, field):
     """Page cache the kernel drops before failing an allocation (``inactive_file``)."""
-    try:
-        with open(stat_path) as f:
-            for line in f:
-                name, _, value = line.partition(" ")
-                if name == field:
-                    return int(value)
-    except (OSError, ValueError):
-        pass
-    return 0
+    value = read_field(stat_path, field)
+    return int(value) if value is not None and value.isdigit() else 0
 
 
 def _cgroup_left():
