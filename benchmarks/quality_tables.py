@@ -18,6 +18,8 @@ SUMMARY_METRICS = {
     "dents_left": ("dents left", "{:.1%}"),
     "clean_lost": ("clean lost", "{:.2%}"),
     "new_material": ("new material", "{:.2%}"),
+    "thin_kept": ("thin parts kept", "{:.1%}"),
+    "error_ratio": ("voxel error / input's", "{:.2f}"),
     "chamfer": ("Chamfer", "{:.3f}"),
     "normal_error_deg": ("normal (°)", "{:.1f}"),
     "sharp_edge_mean": ("sharp edge", "{:.2f}"),
@@ -152,15 +154,27 @@ def _genus_change(key):
     return lambda entry, case, results: abs(entry[key] - results["shapes"][case["shape"]][key])
 
 
-def _clean_pass(results, cases, check):
-    """The clean pass's changed share per shape of the split."""
-    passes = results.get("clean_pass", {}).get(check, {})
-    out = []
-    for shape in dict.fromkeys(c["shape"] for c in cases):
-        if shape in passes:
-            entry = passes[shape]
-            out.append((shape, math.inf if entry.get("error") else entry["changed"]))
-    return out
+def _clean_pass(key):
+    """A Target's ``values``: the clean pass's ``key`` per shape of the split."""
+    def values(results, cases, check):
+        passes = results.get("clean_pass", {}).get(check, {})
+        out = []
+        for shape in dict.fromkeys(c["shape"] for c in cases):
+            if shape in passes:
+                entry = passes[shape]
+                out.append((shape, math.inf if entry.get("error") else entry.get(key)))
+        return out
+    return values
+
+
+def _worst_pass_distance(results, cases, check):
+    """The larger of the clean pass's two 99 % vertex distances (fractions of the diagonal) per shape."""
+    both = [_clean_pass(key)(results, cases, check) for key in ("source_to_result", "result_to_source")]
+    return [(shape, max(a, b)) for (shape, a), (_, b) in zip(*both)]
+
+
+def _components_change(entry, case, results):
+    return abs(entry["components"] - results["shapes"][case["shape"]]["components"])
 
 
 def companions(results, check):
@@ -212,7 +226,21 @@ TARGETS = (
     Target("the same on the voxelizations on the noise grid (|difference|; no sub-voxel tunnels)",
            _per_case(_genus_change("voxel_genus")), 0, "{:.0f}"),
     Target("clean shapes through the variant: ≤ 0.5 % of voxels changed (--clean-pass)",
-           _clean_pass, 0.005, "{:.2%}"),
+           _clean_pass("changed"), 0.005, "{:.2%}"),
+    Target("clean shapes: 99 % of the vertices each way within 0.5 % of the diagonal (--clean-pass)",
+           _worst_pass_distance, 0.005, "{:.3%}"),
+    Target("clean shapes: volume within 0.5 % (--clean-pass)",
+           _clean_pass("volume_change"), 0.005, "{:.3%}"),
+    Target("every noisy case: thin parts kept ≥ 90 % (1 − kept ≤ 0.1)",
+           _per_case(lambda e, c, r: 1.0 - e["thin_kept"]), 0.1, "{:.1%}"),
+    Target("every noisy case: components equal to the clean shape's (|difference|)",
+           _per_case(_components_change), 0, "{:.0f}"),
+    Target("every noisy case: Chamfer below the noisy input's (ratio < 1)",
+           _per_case(_chamfer_to_noisy), 1.0, "{:.2f}", strict=True),
+    Target("every noisy case: Chamfer below the best rival's (ratio < 1)",
+           _per_case(_chamfer_to_best_rival), 1.0, "{:.2f}", strict=True),
+    Target("bumps-dents: clean lost ≤ 1 % on each",
+           _per_case(_metric("clean_lost"), ("bumps-dents",)), 0.01, "{:.2%}"),
     Target("another denoise resolution (e.g. 256): noise left within 0.05 of this one on each",
            _resolution_agreement, 0.05, "{:.3f}"),
 )
@@ -334,7 +362,9 @@ def write_table(results, path):
     if results.get("clean_pass"):
         labels = list(results["clean_pass"])
         shape_names = list(dict.fromkeys(sh for label in labels for sh in results["clean_pass"][label]))
-        out.append("## Clean pass: voxels changed when denoising the clean shape\n")
+        out.append("## Clean pass: the clean shape through the filter\n")
+        out.append("Cells: voxels changed · 99 % of the vertices within (share of the diagonal, the worse "
+                   "direction) · volume change · seconds.\n")
         out.append(_table(["shape"] + labels, [[sh] + [_pass_cell(results["clean_pass"][label].get(sh))
                                                        for label in labels] for sh in shape_names]) + "\n")
     out.append("## Shapes\n")
@@ -351,4 +381,8 @@ def write_table(results, path):
 def _pass_cell(entry):
     if entry is None:
         return "–"
-    return "failed" if entry.get("error") else f"{entry['changed']:.2%} ({entry['seconds']:.1f} s)"
+    if entry.get("error"):
+        return "failed"
+    distance = max(entry.get("source_to_result", math.nan), entry.get("result_to_source", math.nan))
+    return (f"{entry['changed']:.2%} · {distance:.3%} · {entry.get('volume_change', math.nan):.3%} · "
+            f"{entry['seconds']:.1f} s")

@@ -39,6 +39,7 @@ class Shape:
     genus: int  # through holes, known from the shape's construction or source
     view: tuple = (1.0, 0.8, 1.2)  # camera direction for pictures, from the centre towards the eye
     up: tuple = Y_UP
+    thin: bool = False  # built with parts 2-8 voxels thick at 160 voxels (the thin-part measure's shapes)
 
 
 def _from_file(path):
@@ -109,6 +110,128 @@ def l_bracket():
     return _to_trimesh(solid)
 
 
+# Thin-featured shapes: parts 2-8 voxels thick at the benchmark's 160 voxels (one voxel = 1/160 of the
+# longest side), the features a denoiser must keep. VOXEL is that length.
+VOXEL = 1.0 / 160.0
+
+
+def _sphere(radius, centre=(0.0, 0.0, 0.0), scale=(1.0, 1.0, 1.0)):
+    return manifold3d.Manifold.sphere(radius, SEGMENTS).scale(scale).translate(centre)
+
+
+def _rod(start, end, radius, tip_radius=None):
+    """A cylinder (a cone with ``tip_radius``) from point ``start`` to point ``end``."""
+    start, end = np.asarray(start, float), np.asarray(end, float)
+    axis = end - start
+    length = float(np.linalg.norm(axis))
+    rod = manifold3d.Manifold.cylinder(length, radius, radius if tip_radius is None else tip_radius, SEGMENTS)
+    z = axis / length
+    x = np.cross(z, (0.0, 0.0, 1.0) if abs(z[2]) < 0.9 else (1.0, 0.0, 0.0))
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    return rod.transform(np.column_stack([x, y, z, start]))
+
+
+def _slab(corners, thickness, axis=2):
+    """The prism of thickness ``thickness`` along ``axis`` over the polygon ``corners`` (2-D points in
+    the other two axes, in axis order), centred on 0 along ``axis``."""
+    points = []
+    for u, v in corners:
+        for w in (-thickness / 2, thickness / 2):
+            p = [u, v]
+            p.insert(axis, w)
+            points.append(tuple(p))
+    return manifold3d.Manifold.hull_points(points)
+
+
+def _union(parts):
+    return manifold3d.Manifold.batch_boolean(list(parts), manifold3d.OpType.Add)
+
+
+def airplane():
+    """A 1-long airplane: a tapered fuselage (16 voxels across), wings 4 voxels thick spanning 0.9,
+    a tail plane 3 voxels thick and a fin 2.5 voxels thick: genus 0."""
+    fuselage = manifold3d.Manifold.batch_hull([_sphere(0.055, (-0.44, 0, 0)), _sphere(0.035, (0.46, 0, 0.02))])
+    wings = _union([_slab([(-0.13, 0.0), (0.1, 0.0), (0.08, s * 0.45), (-0.02, s * 0.45)], 4 * VOXEL)
+                    for s in (1, -1)])
+    tail = _union([_slab([(0.34, 0.0), (0.46, 0.0), (0.47, s * 0.17), (0.42, s * 0.17)], 3 * VOXEL)
+                   for s in (1, -1)]).translate((0, 0, 0.02))
+    fin = _slab([(0.33, 0.0), (0.47, 0.0), (0.48, 0.18), (0.43, 0.18)], 2.5 * VOXEL, axis=1).translate((0, 0, 0.02))
+    return _to_trimesh(_union([fuselage, wings, tail, fin]))
+
+
+def fin_plate():
+    """A 1 x 0.4 x 0.06 plate with six upright fins 0.22 high, 2, 3, 4, 5, 6 and 8 voxels thick: genus 0
+    (a heat sink)."""
+    plate = _box((1.0, 0.4, 0.06), (0.0, 0.0, 0.0))
+    fins = [_box((t * VOXEL, 0.36, 0.22), (x, 0.0, 0.13)) for t, x in zip((2, 3, 4, 5, 6, 8),
+                                                                           np.linspace(-0.4, 0.4, 6))]
+    return _to_trimesh(_union([plate] + fins))
+
+
+def chair():
+    """A chair 1 high: a seat 5 voxels thick, four legs 6 voxels square, a back of two posts and three
+    slats 4 voxels thick: genus 3 (the openings of the back)."""
+    seat = _box((0.5, 0.5, 5 * VOXEL), (0.0, 0.0, 0.45))
+    leg = 6 * VOXEL
+    legs = [_box((leg, leg, 0.45), (x, y, 0.225)) for x in (-0.22, 0.22) for y in (-0.22, 0.22)]
+    posts = [_box((leg, leg, 0.55), (x, 0.22, 0.72)) for x in (-0.22, 0.22)]
+    slats = [_box((0.44, 4 * VOXEL, 0.05), (0.0, 0.22, z)) for z in (0.62, 0.78, 0.94)]
+    return _to_trimesh(_union([seat] + legs + posts + slats))
+
+
+def quadruped():
+    """A 1-long four-legged animal: an ellipsoid body, legs 7 voxels thick, a head with two horns
+    (cones from 4 voxels across to a point), two ears 2.5 voxels thick and a tail 3 voxels thick:
+    genus 0."""
+    body = _sphere(1.0, (0.0, 0.0, 0.0), (0.3, 0.13, 0.13))
+    legs = [_rod((x, y, -0.06), (x, y, -0.42), 3.5 * VOXEL) for x in (-0.2, 0.2) for y in (-0.07, 0.07)]
+    head = manifold3d.Manifold.batch_hull([_sphere(0.08, (0.22, 0.0, 0.06)), _sphere(0.085, (0.38, 0.0, 0.12))])
+    horns = [_rod((0.38, s * 0.05, 0.18), (0.36, s * 0.13, 0.3), 2 * VOXEL, 0.3 * VOXEL) for s in (1, -1)]
+    ears = [_sphere(1.0, (0.33, s * 0.11, 0.17), (0.035, 0.06, 2.5 * VOXEL / 2)) for s in (1, -1)]
+    tail = _rod((-0.28, 0.0, 0.02), (-0.5, 0.0, -0.18), 1.5 * VOXEL)
+    return _to_trimesh(_union([body, head] + legs + horns + ears + [tail]))
+
+
+def mug():
+    """A mug 0.7 high and 0.6 across with a wall and a handle 5 voxels thick (after scaling to a longest
+    side of 1): genus 1."""
+    wall = 0.025
+    outer = manifold3d.Manifold.cylinder(0.7, 0.3, -1.0, SEGMENTS)
+    inner = manifold3d.Manifold.cylinder(0.7, 0.3 - wall, -1.0, SEGMENTS).translate((0, 0, 0.05))
+    ring = manifold3d.Manifold.revolve(manifold3d.CrossSection.circle(0.012, 24).translate((0.15, 0.0)),
+                                       SEGMENTS).scale((1.0, 1.0, 1.4))
+    handle = ring.rotate((90.0, 0.0, 0.0)).translate((0.3, 0.0, 0.36)) - _cylinder(0.29, 1.0, 0, 0, -0.2)
+    return _to_trimesh(_union([outer - inner, handle]))
+
+
+
+def stool():
+    """A round stool 1 high: a seat disc 0.5 across and 6 voxels thick on three legs 5 voxels across,
+    splayed outwards and joined by a ring rung 4 voxels thick: genus 3 (the ring's own loop, and two
+    more through the three legs between the ring and the seat)."""
+    seat = manifold3d.Manifold.cylinder(6 * VOXEL, 0.25, -1.0, SEGMENTS).translate((0, 0, 1.0 - 6 * VOXEL))
+    angles = np.radians([90.0, 210.0, 330.0])
+    legs = [_rod((0.17 * np.cos(a), 0.17 * np.sin(a), 1.0 - 6 * VOXEL), (0.24 * np.cos(a), 0.24 * np.sin(a), 0.0),
+                 2.5 * VOXEL) for a in angles]
+    ring = manifold3d.Manifold.revolve(manifold3d.CrossSection.circle(2 * VOXEL, 16).translate((0.205, 0.0)),
+                                       SEGMENTS).translate((0, 0, 0.35))
+    return _to_trimesh(_union([seat, ring] + legs))
+
+
+def gear():
+    """A spur gear 1 across and 0.16 thick with 24 teeth 0.06 high (10 voxels) and 4 voxels wide at the
+    tip, a hub bore 0.2 across and six round lightening holes: genus 7."""
+    body = manifold3d.Manifold.cylinder(0.16, 0.44, -1.0, SEGMENTS * 2)
+    teeth = []
+    for a in np.linspace(0.0, 360.0, 24, endpoint=False):
+        tooth = _slab([(0.43, -0.035), (0.5, -2 * VOXEL), (0.5, 2 * VOXEL), (0.43, 0.035)], 0.16).translate((0, 0, 0.08))
+        teeth.append(tooth.rotate((0.0, 0.0, float(a))))
+    holes = [_cylinder(0.1, 1.0, 0, 0, -0.5)] + [
+        _cylinder(0.06, 1.0, 0.28 * np.cos(a), 0.28 * np.sin(a), -0.5) for a in np.radians(np.arange(0, 360, 60))]
+    return _to_trimesh(_union([body] + teeth) - _union(holes))
+
+
 SHAPES = {s.name: s for s in (
     Shape("fandisk", _from_file(sample_path()), cad=True, genus=0, view=(1.0, 0.6, -1.2)),
     Shape("rocker-arm", _from_file(os.path.join(DATA, "rocker-arm.obj")), cad=True, genus=1,
@@ -122,6 +245,13 @@ SHAPES = {s.name: s for s in (
     Shape("pocket-plate", plate_with_pockets, cad=True, genus=0, view=(0.7, -1.0, 1.5), up=Z_UP),
     Shape("u-channel", u_channel, cad=True, genus=0, view=(1.0, -1.3, 1.2), up=Z_UP),
     Shape("l-bracket", l_bracket, cad=True, genus=1, view=(1.3, -1.0, 0.9), up=Z_UP),
+    Shape("airplane", airplane, cad=False, genus=0, view=(0.8, -1.0, 0.9), up=Z_UP, thin=True),
+    Shape("fin-plate", fin_plate, cad=True, genus=0, view=(0.6, -1.2, 0.9), up=Z_UP, thin=True),
+    Shape("chair", chair, cad=True, genus=3, view=(1.0, -1.3, 0.8), up=Z_UP, thin=True),
+    Shape("quadruped", quadruped, cad=False, genus=0, view=(0.3, -1.2, 0.4), up=Z_UP, thin=True),
+    Shape("mug", mug, cad=True, genus=1, view=(1.0, -1.2, 0.9), up=Z_UP, thin=True),
+    Shape("stool", stool, cad=True, genus=3, view=(1.0, -1.3, 0.7), up=Z_UP, thin=True),
+    Shape("gear", gear, cad=True, genus=7, view=(0.6, -0.8, 1.2), up=Z_UP, thin=True),
 )}
 
 

@@ -184,6 +184,27 @@ class _Surface:
         return dist, found["primitive_ids"].numpy().astype(np.int64)
 
 
+def pass_through(result, source, quantile=99.0):
+    """How far a result lies from its source mesh: the ``quantile`` percentile of the distances from
+    the source's vertices to the result's surface and from the result's vertices to the source's,
+    each over the source's bounding-box diagonal, and the relative change of the enclosed volume
+    (of the meshes when both are closed, else NaN).
+
+    Returns
+    -------
+    dict
+        ``source_to_result``, ``result_to_source`` (fractions of the diagonal), ``volume_change``.
+    """
+    diagonal = float(np.linalg.norm(np.ptp(np.asarray(source.vertices), axis=0)))
+    there = _Surface(result).closest(source.vertices)[0]
+    back = _Surface(source).closest(result.vertices)[0]
+    volume = float("nan")
+    if source.is_volume and result.is_volume:
+        volume = float(abs(result.volume - source.volume) / abs(source.volume))
+    return {"source_to_result": float(np.percentile(there, quantile) / diagonal),
+            "result_to_source": float(np.percentile(back, quantile) / diagonal), "volume_change": volume}
+
+
 def _sample(mesh, n, seed):
     """``n`` area-uniform points on the mesh with a fixed seed, and their faces."""
     points, faces = trimesh.sample.sample_surface(mesh, int(n), seed=seed)
@@ -465,6 +486,29 @@ def shrinkage(result, clean, grid, noise=None, reach=6.1, result_volume=None, cl
             far = c & (ndimage.distance_transform_edt(~near) > reach)
     n = np.count_nonzero(far)
     return float("nan") if n == 0 else float(np.count_nonzero(far & ~v) / n)
+
+
+def thin_parts(clean, radius=4.0):
+    """The voxels of ``clean`` that an opening by a ball of ``radius`` voxels removes: its thin parts
+    (plates, rods, rims thinner than ``2 radius``) and the voxels of its convex edges and corners.
+
+    The opening is computed with distance transforms (the erosion is the voxels deeper than
+    ``radius``, the dilation the voxels within ``radius`` of those), so it is the opening by the
+    Euclidean ball of that radius (centres within it).
+    """
+    clean = np.asarray(clean, dtype=bool)
+    core = ndimage.distance_transform_edt(clean) > radius
+    if not core.any():
+        return clean.copy()
+    opened = ndimage.distance_transform_edt(~core) <= radius
+    return clean & ~opened
+
+
+def thin_parts_kept(result_volume, thin):
+    """Share of the ``thin`` voxels (`thin_parts` of the clean shape) that ``result_volume`` holds; NaN
+    when there are none."""
+    n = np.count_nonzero(thin)
+    return float(np.count_nonzero(thin & result_volume) / n) if n else float("nan")
 
 
 # --------------------------------------------------------------------------

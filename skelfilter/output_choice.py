@@ -6,47 +6,35 @@ Three measurements decide the ``auto`` output mesh of the default preset:
   fills whatever it encloses; when that closes only small holes (the bunny's base), nearly all of
   the voxel surface lies on the input mesh, while an open surface (a relief, a single-view scan)
   gets a cap that lies far from it.
-- `skeleton_noise_layer`: does the input carry noise at the skeleton's scale? Bumps and stripes
-  several voxels tall, removed by the pruning, stick out of the denoised shape (`protruding`) and
-  rise at least `TALL` voxels above it; their volume over the input's surface is the mean thickness
-  of that layer, given as a fraction of the model's size so that it does not depend on the grid.
-  On clean shapes what the pruning takes off is the shape's own relief (an ear's tip, a fold), a
-  thinner layer.
+- does the input carry noise at the skeleton's scale? `skelfilter.noise_estimate` measures it on
+  what the pruning removes (many low peaks all over the surface); the pipeline asks it.
 - the fine noise on the mesh itself (`skelfilter.normal_filtering.noise_level`): a scanner's
   noise turns every face away from its neighbours. Where it is strong the fine pass is the better
   tool and the voxel stage's verdict mixes that noise with real relief; voxel-derived meshes
   (marching cubes, segmentations) have a flat neighbour for every face.
 
-A new closed mesh is made when the layer reaches `NOISE_LAYER` and the fine noise stays under
-`FINE_NOISE`. Chosen on `benchmarks/quality.py` (thesis-style noise, seed 1 at 160: layer
-0.00091-0.0110 of the size, fine noise at most 0.007), the clean shapes (layer at most 0.0003) and
-the literature's pairs (fine noise 0.115-0.235); see README "Output meshes".
+A new closed mesh is made when noise at the skeleton's scale is found and the fine noise stays under
+`FINE_NOISE`. Chosen on `benchmarks/quality.py` (thesis-style noise, seed 1 at 160: fine noise at
+most 0.007) and the literature's pairs (fine noise 0.115-0.235); see README "Output meshes".
 """
 
 import numpy as np
-from scipy import ndimage
 
 from . import normal_filtering
-from .vertex_projection import protruding
+from .noise_estimate import surface_voxels
 
 # Voxels of the input's voxel surface that must lie within `NEAR` voxels of the input mesh for the
 # input to count as a solid.
 SOLID_SHARE = 0.98
 NEAR = 2.0
-# Removed voxels count as tall noise from `TALL` voxels above the denoised shape (the 26-neighbours of
-# the shape are the voxels under 2 voxels from it); the input is
-# covered in skeleton-scale noise from a mean layer of `NOISE_LAYER` of its size, with fine noise
-# under `FINE_NOISE`.
-TALL = 2.0
-NOISE_LAYER = 6e-4
+# From this fine noise the input mesh comes back smoothed by the fine pass, the voxel stage skipped.
 FINE_NOISE = 0.08
+# Under this fine noise a mesh has none: where the voxel stage changed nothing it comes back as it was,
+# without the fine pass (clean meshes measure at most 0.037, the rocker arm; the literature's noisy
+# pairs from 0.115, Bunny0.2).
+CLEAN_FINE_NOISE = 0.06
 # Faces, or voxels, on which the shares above are measured at most (a random sample, fixed seed).
 SAMPLE = 50_000
-
-
-def surface_voxels(volume):
-    """The set voxels with an unset 6-neighbour."""
-    return volume & ~ndimage.binary_erosion(volume)
 
 
 def is_closed(faces):
@@ -72,17 +60,6 @@ def solid_share(occupancy, mesh, grid):
                         o3d.core.Tensor(np.asarray(mesh.faces, dtype=np.uint32)))
     distance = scene.compute_distance(o3d.core.Tensor(grid.to_world(rim).astype(np.float32))).numpy()
     return float(np.mean(distance / grid.pitch <= NEAR))
-
-
-def skeleton_noise_layer(occupancy, mask, resolution):
-    """Mean thickness, as a fraction of the model's size, of the protruding removed voxels at least
-    `TALL` voxels from ``mask`` spread over the surface of ``occupancy`` (the input voxels; ``mask``
-    the denoised ones; ``resolution`` voxels along the model's longest side)."""
-    removed = protruding(occupancy & ~mask, mask)
-    # at least TALL = 2 voxels from the mask: outside its 26-neighbourhood (squared distances <= 3)
-    tall = removed & ~ndimage.binary_dilation(mask, structure=np.ones((3, 3, 3), dtype=bool))
-    surface = max(np.count_nonzero(surface_voxels(occupancy)), 1)
-    return float(np.count_nonzero(tall) / surface / resolution)
 
 
 def fine_noise(mesh, sample=SAMPLE, seed=0):

@@ -86,9 +86,10 @@ def build(cls, base=None, **values):
 PRESETS = {
     "default": {"stages": "foreground", "threshold": None, "threshold_relative": 30.0 / 160.0,
                 "cap_factor": 1.0, "unchanged_surface": "input", "thin_radius_relative": 4.0 / 160.0,
-                "output_mesh": "auto"},
+                "output_mesh": "auto", "keep_features": "on"},
     "thesis": {"stages": "both", "threshold": 18.0, "threshold_relative": None, "cap_factor": 2.0,
-               "unchanged_surface": "reconstruction", "thin_radius_relative": 1.0, "output_mesh": "closed"},
+               "unchanged_surface": "reconstruction", "thin_radius_relative": 1.0, "output_mesh": "closed",
+               "keep_features": "off"},
 }
 
 
@@ -171,6 +172,26 @@ class DenoiseParams:
         "rules off; unset: the preset's (default: 0.025, i.e. 4 voxels at resolution 160; thesis: 1)",
         "fraction",
         measure=RELATIVE,
+    )
+    keep_features: str = _p(
+        "preset",
+        "Keep features",
+        "'on': measure the noise on what the pruning removes (how high its peaks stand above the "
+        "kept shape, and over how much of the surface) and give back what is no noise: every "
+        "removed part that stands higher than the noise (a leg, a wing, a fin, a rim) whole, and "
+        "whatever joined pieces the pruning cut apart; where no noise is found the input passes "
+        "through unchanged; 'off': the pruning as it is; 'preset': the preset's (default: on; "
+        "thesis: off)",
+        choices=("preset", "on", "off"),
+    )
+    noise_height: float | None = _p(
+        None,
+        "Noise height",
+        "the height of the noise to remove, replacing the estimate: removed parts standing higher "
+        "above the kept shape come back (with keep features on); unset: measured on the input",
+        "voxels",
+        measure=ABSOLUTE,
+        limits=(0.01, 10000),
     )
     k: float = _p(
         0.9, "Derivative threshold k",
@@ -277,7 +298,7 @@ class DenoiseParams:
     def _apply_preset(self):
         """Fill the fields left unset with the preset's values (the dataclass is frozen)."""
         preset = PRESETS[self.preset]
-        for name in ("stages", "unchanged_surface", "output_mesh"):
+        for name in ("stages", "unchanged_surface", "output_mesh", "keep_features"):
             if getattr(self, name) == "preset":
                 object.__setattr__(self, name, preset[name])
         if self.thin_radius_relative is None:
@@ -294,6 +315,12 @@ class DenoiseParams:
                 raise ParameterError("a relative threshold needs the resolution (set it, or let the mesh choose it)")
             return self.threshold_relative * self.resolution
         return float(self.threshold)
+
+    @property
+    def threshold_given(self):
+        """Whether t was chosen by the caller rather than left to the preset."""
+        return self.threshold_relative != PRESETS[self.preset]["threshold_relative"] or (
+            self.threshold is not None and self.threshold != PRESETS[self.preset]["threshold"])
 
     @property
     def thin_radius_voxels(self):
@@ -321,6 +348,21 @@ class DenoiseParams:
         if changes.get("threshold") is not None and "threshold_relative" not in changes:
             changes["threshold_relative"] = None
         return replace(self, **changes)
+
+
+# The fields that only the voxel stage reads (all but these).
+MESH_FIELDS = ("preset", "output_mesh", "fine_pass")
+
+
+def voxel_fields_given(params):
+    """The voxel-stage fields of a DenoiseParams that differ from what its preset gives them unset:
+    the choices a caller made for the voxel stage (see `MESH_FIELDS`)."""
+    base = DenoiseParams(preset=params.preset)
+    given = [f.name for f in fields(params)
+             if f.name not in MESH_FIELDS and getattr(params, f.name) != getattr(base, f.name)]
+    if "threshold" in given and "threshold_relative" in given:  # a threshold in voxels clears the relative one
+        given.remove("threshold_relative")
+    return given
 
 
 @dataclass(frozen=True)

@@ -5,20 +5,22 @@ derivative measure -> rho+ -> pruned skeleton -> EDT filter ->
 reconstruction -> mesh; foreground stage for bumps, background stage for dents.
 """
 
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import ndimage
 
-from . import (edt_filters, importance, noise, normal_filtering, output_choice, reconstruct, saliency, skeleton,
-               surface, vertex_projection, voxelize)
+from . import (edt_filters, feature_restore, importance, noise, noise_estimate, normal_filtering, output_choice,
+               reconstruct, saliency, skeleton, surface, vertex_projection, voxelize)
 from . import spacing as voxel_spacing
 from .distance import distance_and_features
-from .errors import InputError, ResourceError
+from .errors import InputError, ParameterError, ResourceError
 from .frame import Frame
 from .io import validate_mesh
 from .memory import check_grid_fits, return_freed_memory
 from .neighbourhood import bounding_box, unravel
-from .params import DenoiseParams, NoiseParams, VolumeParams, build
+from .params import DenoiseParams, NoiseParams, VolumeParams, build, voxel_fields_given
 from .progress import Progress
 
 
@@ -48,6 +50,7 @@ class DenoiseResult:
     mask: np.ndarray  # denoised occupancy, same shape as the input volume
     field: np.ndarray  # > 0 inside; its 0-level is the sub-voxel surface
     stages: dict = field(default_factory=dict)  # "foreground"/"background" -> StageResult
+    noise: dict = field(default_factory=dict)  # "foreground"/"background" -> noise_estimate.NoiseEstimate
     timings: dict = field(default_factory=dict)
     voxels_changed: int = 0  # voxels added or removed: on the voxel grid of a mesh, on a volume's own
 
@@ -148,6 +151,8 @@ def denoise_padded(volume, params, progress):
     if params.stages in ("both", "foreground"):
         with progress.stage("foreground"):
             stage = saliency_stage(current, params, progress)
+            if params.keep_features == "on":
+                result.noise["foreground"] = keep_features(current, stage, params, "bumps", progress)
         result.stages["foreground"] = stage
         current = stage.mask
         field = stage.field
@@ -166,6 +171,8 @@ def denoise_padded(volume, params, progress):
         _fill_outside(background, (slice(1, -1),) * 3, False)
         with progress.stage("background"):
             stage = saliency_stage(background, params, progress)
+            if params.keep_features == "on":
+                result.noise["background"] = keep_features(background, stage, params, "dents", progress)
         del background
         result.stages["background"] = stage
         # Filling dents never reaches past the shape's bounding box; outside
@@ -194,6 +201,46 @@ def denoise_padded(volume, params, progress):
     result.mask = current
     result.field = field
     return result
+
+
+def keep_features(stage_set, stage, params, side, progress):
+    """Give back what the pruning of ``stage_set`` removed that is no noise, in ``stage`` (in place).
+
+    The noise is measured on what the pruning removed (`noise_estimate.estimate_noise`), unless
+    ``params.noise_height`` gives its height. Removed parts standing higher than the noise (with
+    `feature_restore.MARGIN`) come back whole (`feature_restore.features_by_extent`), and so do
+    whatever joined pieces that the pruning cut apart (`feature_restore.connections`) and the skin
+    of edges away from the noise (`feature_restore.skin_far_from_noise`). Where no noise is found
+    and neither the noise height nor the threshold was given, everything comes back: the input
+    passes through. Returns the `noise_estimate.NoiseEstimate`, also told through ``progress``.
+    """
+    with progress.step("noise estimate"):
+        estimate = noise_estimate.estimate_noise(stage_set, stage.mask, params.resolution, side)
+    progress.note(f"noise: {estimate.describe()}")
+    height = params.noise_height
+    if height is None and estimate.found:
+        height = estimate.height + feature_restore.MARGIN
+    elif height is None and params.threshold_given:
+        height = noise_estimate.HIGHEST_NOISE * params.resolution
+    with progress.step("features kept"):
+        if height is None:
+            restored = stage_set & ~stage.mask
+        else:
+            restored = feature_restore.features_by_extent(stage_set, stage.mask, height)
+            restored |= feature_restore.connections(stage_set, stage.mask | restored, height)
+            restored |= feature_restore.skin_far_from_noise(stage_set, stage.mask | restored,
+                                                            feature_restore.SKIN_REACH)
+        _restore(stage.mask, stage.field, restored)
+    return estimate
+
+
+def _restore(mask, field, restored):
+    """Add ``restored`` to the reconstruction ``mask`` and its ``field`` (in place): inside at half a
+    voxel from the surface, which lies on the voxels' faces as for every voxel of the input."""
+    mask |= restored
+    np.maximum(field, 0.5, out=field, where=restored)
+    rim = ndimage.binary_dilation(restored, structure=np.ones((3, 3, 3), dtype=bool)) & ~mask
+    np.maximum(field, -0.5, out=field, where=rim)
 
 
 def _fill_outside(volume, box, value):
@@ -336,6 +383,9 @@ def denoise_mesh_detailed(mesh, params=None, progress=None, **overrides):
     frame = Frame.of(validate_mesh(mesh))
     unit = frame.to_unit(mesh)
     closed, kept_vertices, result, grid = _denoise_unit(unit, params, progress)
+    if closed is not None and params.output_mesh == "auto" and _attributes(mesh):
+        warnings.warn(f"the new closed mesh has no {_attributes(mesh)}; output_mesh input keeps them "
+                      "(the input mesh with its vertices moved)", stacklevel=2)
     out = frame.to_world(closed) if closed is not None else frame.moved(mesh, unit, kept_vertices)
     return out, result, frame.grid_to_world(grid)
 
@@ -343,6 +393,7 @@ def denoise_mesh_detailed(mesh, params=None, progress=None, **overrides):
 def _denoise_unit(mesh, params, progress):
     """`denoise_mesh_detailed` on a mesh in its unit frame: (a new closed mesh or None, the moved
     vertices of ``mesh`` or None, the DenoiseResult, the Grid)."""
+    given = voxel_fields_given(params)
     if params.resolution is None:
         params = params.with_(resolution=_fitting_resolution(mesh, params))
         progress.note(f"resolution {params.resolution} voxels (from the mesh's mean edge length)")
@@ -350,10 +401,12 @@ def _denoise_unit(mesh, params, progress):
                                 required=params.output_mesh == "closed")
     output = params.output_mesh
     skipped = None  # why the voxel stage does not run
+    fine = None
     if output == "auto":
         with progress.step("fine noise"):
             fine = output_choice.fine_noise(mesh)
-        if fine >= output_choice.FINE_NOISE:
+        # Voxel-stage parameters given by the caller ask for the voxel stage: it runs.
+        if fine >= output_choice.FINE_NOISE and not [name for name in given if name != "resolution"]:
             skipped = (f"fine noise {fine:.3f} (from {output_choice.FINE_NOISE:g}): the input mesh comes back, "
                        "smoothed by the fine pass")
     if skipped is None and output != "closed":
@@ -365,20 +418,25 @@ def _denoise_unit(mesh, params, progress):
                 skipped = ("the input is an open surface: its own mesh comes back, smoothed by the fine pass "
                            "(the voxel stage needs a solid; --close makes one)")
     if skipped is not None:
+        ignored = [name for name in given if name != "resolution"]
+        if ignored:
+            raise ParameterError(f"{', '.join(ignored)} would have no effect: {skipped}; output_mesh closed runs "
+                                 "the voxel stage on any input")
+        if given:
+            skipped += f" (resolution {params.resolution} was used only to tell a solid from a surface)"
         progress.note(skipped)
         result = DenoiseResult(mask=occupancy, field=None, timings=progress.timings)
-        return None, _kept_vertices(mesh, None, params, grid, progress), result, grid
+        return None, _kept_vertices(mesh, None, params, grid, progress, fine), result, grid
     _require_inside(occupancy, mesh, grid, params.resolution)
     result = denoise_padded(occupancy.copy(), params, progress)
     result.voxels_changed = int(np.count_nonzero(result.mask != occupancy))
     voxel_moves = output == "input"
     if output == "auto":
-        with progress.step("noise layer"):
-            layer = output_choice.skeleton_noise_layer(occupancy, result.mask, params.resolution)
-        output = "closed" if layer >= output_choice.NOISE_LAYER else "input"
-        progress.note(f"output: {'a new closed mesh' if output == 'closed' else 'the input mesh, smoothed'} "
-                      f"(skeleton-scale noise {layer:.5f} of the size; from {output_choice.NOISE_LAYER:g} "
-                      "a new closed mesh)")
+        found = [e for e in result.noise.values() if e.found] or params.noise_height is not None \
+            or params.threshold_given or params.keep_features == "off"
+        output = "closed" if found and result.voxels_changed else "input"
+        progress.note(f"output: {'a new closed mesh' if output == 'closed' else 'the input mesh'} "
+                      f"({'noise at the skeleton scale removed' if output == 'closed' else 'no noise at the skeleton scale'})")
     if output == "closed":
         if params.unchanged_surface == "input":
             with progress.step("input surface"):
@@ -386,13 +444,21 @@ def _denoise_unit(mesh, params, progress):
         del occupancy
         with progress.step("marching cubes"):
             return surface.field_to_mesh(result.field, grid), None, result, grid
-    vertices = _kept_vertices(mesh, (result, occupancy) if voxel_moves else None, params, grid, progress)
+    vertices = _kept_vertices(mesh, (result, occupancy) if voxel_moves else None, params, grid, progress, fine)
     return None, vertices, result, grid
 
 
-def _kept_vertices(mesh, voxels, params, grid, progress):
+def _attributes(mesh):
+    """The per-vertex or per-face attributes of ``mesh`` that a new mesh cannot carry, in words."""
+    kind = getattr(mesh.visual, "kind", None)
+    return {"vertex": "vertex colours", "face": "face colours", "texture": "texture coordinates"}.get(kind, "")
+
+
+def _kept_vertices(mesh, voxels, params, grid, progress, fine=None):
     """The input mesh's vertices, moved: onto the denoised surface where ``voxels`` (the
-    DenoiseResult and the input occupancy, or None) says the shape changed, then by the fine pass."""
+    DenoiseResult and the input occupancy, or None) says the shape changed, then by the fine pass
+    unless nothing moved and the mesh has no fine noise (``fine``: its `output_choice.fine_noise`
+    when known)."""
     # Vertices split along UV seams or by the file format move as one.
     welded, inverse = np.unique(np.asarray(mesh.vertices, dtype=np.float64), axis=0, return_inverse=True)
     inverse = inverse.reshape(-1)
@@ -404,7 +470,16 @@ def _kept_vertices(mesh, voxels, params, grid, progress):
             vertices, moved = vertex_projection.move_input_vertices(
                 welded, faces, result.mask, occupancy, result.field, surface.mask_field(occupancy), grid,
                 max_move=params.threshold_voxels / 2)
-    if params.fine_pass:
+    fine_pass = params.fine_pass
+    if fine_pass and not moved.any():
+        if fine is None:
+            with progress.step("fine noise"):
+                fine = output_choice.fine_noise(mesh)
+        if fine < output_choice.CLEAN_FINE_NOISE:
+            fine_pass = False
+            progress.note(f"fine noise {fine:.3f} (under {output_choice.CLEAN_FINE_NOISE:g}): no fine pass, "
+                          "the mesh comes back as it was")
+    if fine_pass:
         with progress.step("fine pass"):
             # The rim of an open surface stays where it was (measured on Nicolo0.2: both scores
             # lower than with the rim smoothed, and the boundary exactly the input's).

@@ -25,8 +25,9 @@ def test_benchmark_writes_every_figure(tmp_path):
         assert r["peak_rss_mib"] > 0 and r["bytes_per_voxel"] > 0
         assert {"voxelize", "solid check", "foreground/importance", "foreground/reconstruction",
                 "needles"} <= set(r["steps_s"])
-        # the output the default chose: a new closed mesh, or the input mesh smoothed
-        assert {"input surface", "marching cubes"} <= set(r["steps_s"]) or "fine pass" in r["steps_s"]
+        # the output the default chose: a new closed mesh, or the input mesh (smoothed where it has fine
+        # noise; at 48 voxels the thesis' noise, 5 voxels high, is no longer told from relief)
+        assert {"input surface", "marching cubes"} <= set(r["steps_s"]) or "fine noise" in r["steps_s"]
         assert set(r["steps_peak_mib"]) == set(r["steps_s"])
         assert set(r["stages"]) == {"foreground"}  # the default preset
         for stage in r["stages"]:

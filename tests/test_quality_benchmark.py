@@ -61,7 +61,7 @@ def test_variant_text():
 def test_quality_benchmark_smoke(tmp_path):
     out = tmp_path / "out"
     results = quality.main(["--resolution", "64", "--shapes", "cube,l-bracket", "--kinds", "stripes", "--seeds", "1",
-                            "--variant", "default", "--rivals", "taubin", "--jobs", "1", "--clean-pass",
+                            "--variant", "default:noise_height=7", "--rivals", "taubin", "--jobs", "1", "--clean-pass",
                             "--out", str(out), "--cache", str(tmp_path / "cache")])
     saved = json.loads((out / "results.json").read_text())
     assert [c["name"] for c in saved["cases"]] == ["cube stripes s1", "l-bracket stripes s1"]
@@ -90,6 +90,6 @@ def test_quality_benchmark_smoke(tmp_path):
 
     # A second run takes the rival from the cache: same numbers, no rerun.
     again = quality.main(["--resolution", "64", "--shapes", "cube", "--kinds", "stripes", "--seeds", "1",
-                          "--variant", "default", "--rivals", "taubin", "--jobs", "1", "--cached-rivals",
+                          "--variant", "default:noise_height=7", "--rivals", "taubin", "--jobs", "1", "--cached-rivals",
                           "--no-pictures", "--out", str(tmp_path / "again"), "--cache", str(tmp_path / "cache")])
     assert again["cases"][0]["methods"]["taubin"] == saved["cases"][0]["methods"]["taubin"]

@@ -1,0 +1,111 @@
+"""Do no harm: clean shapes with thin parts pass through the default unchanged, thin parts survive the
+noise's removal, and every flag either takes effect or is refused with a reason."""
+
+import numpy as np
+import pytest
+import trimesh
+from scipy import ndimage
+
+from skelfilter import metrics, pipeline
+from skelfilter.errors import ParameterError
+from skelfilter.noise import add_noise
+from skelfilter.params import DenoiseParams
+from skelfilter.progress import Progress
+from skelfilter.voxelize import voxelize
+
+import manifold3d
+
+
+def _mesh(solid):
+    m = solid.to_mesh()
+    return trimesh.Trimesh(np.asarray(m.vert_properties)[:, :3], np.asarray(m.tri_verts), process=True)
+
+
+def _box(size, centre):
+    return manifold3d.Manifold.cube(size, True).translate(centre)
+
+
+@pytest.fixture(scope="module")
+def winged():
+    """A body 1 long with two wings 0.025 thick (4 voxels at 160) and a fin 0.0156 thick (2.5 voxels)."""
+    body = _box((1.0, 0.12, 0.12), (0, 0, 0))
+    wings = _box((0.25, 0.9, 0.025), (0, 0, 0))
+    fin = _box((0.15, 0.0156, 0.18), (0.4, 0, 0.12))
+    return _mesh(manifold3d.Manifold.batch_boolean([body, wings, fin], manifold3d.OpType.Add))
+
+
+@pytest.fixture(scope="module")
+def legged():
+    """A body on four legs 0.04 square (6.4 voxels at 160), 0.35 long."""
+    body = _box((0.8, 0.3, 0.25), (0, 0, 0.3))
+    legs = [_box((0.04, 0.04, 0.35), (x, y, 0.0)) for x in (-0.3, 0.3) for y in (-0.1, 0.1)]
+    return _mesh(manifold3d.Manifold.batch_boolean([body] + legs, manifold3d.OpType.Add))
+
+
+@pytest.mark.parametrize("name", ["winged", "legged"])
+def test_a_clean_thin_shape_comes_back_unchanged(request, name):
+    mesh = request.getfixturevalue(name)
+    progress = Progress(enabled=False)
+    out, result, _ = pipeline.denoise_mesh_detailed(mesh, DenoiseParams(resolution=160), progress)
+    assert result.voxels_changed == 0 and not result.noise["foreground"].found
+    assert np.array_equal(out.faces, mesh.faces) and np.allclose(out.vertices, mesh.vertices, atol=0)
+    assert any("none found" in n for n in progress.notes)
+    # the pruning alone (the previous default) takes the thin parts: this is what keep_features prevents
+    occupancy = voxelize(mesh, 160, 40)[0]
+    pruned = pipeline.denoise_volume(occupancy, keep_features="off").mask
+    assert np.count_nonzero(occupancy & ~pruned) > 0.01 * np.count_nonzero(occupancy)
+
+
+def test_thin_parts_stay_while_the_noise_goes(legged):
+    clean = voxelize(legged, 160, 20)[0]
+    noise = add_noise(clean, p=0.003, r=2.1, h=3, l=6, seed=1)
+    result = pipeline.denoise_volume(noise.noisy)
+    thin = metrics.thin_parts(clean)
+    legs = clean.copy()
+    legs[:, :, int(np.flatnonzero(clean.any(axis=(0, 1)))[0]) + 40:] = False  # the legs' lower half
+    estimate = result.noise["foreground"]
+    assert estimate.found and 5.0 <= estimate.height <= 9.0  # bumps stand h + r = 5.1 above the surface
+    assert np.count_nonzero(legs & result.mask) / np.count_nonzero(legs) > 0.99
+    assert metrics.thin_parts_kept(result.mask, thin) > 0.9
+    left = np.count_nonzero(noise.bumps & result.mask) / np.count_nonzero(noise.bumps)
+    assert left < 0.5  # measured 0.31: the noise on the legs comes back with them
+    assert ndimage.label(result.mask, structure=np.ones((3, 3, 3)))[1] == 1
+
+
+def test_thin_parts_against_a_brute_force_opening():
+    rng = np.random.default_rng(2)
+    shape = ndimage.binary_closing(rng.random((30, 30, 30)) < 0.5, iterations=3)
+    ball = np.add.outer(np.add.outer(np.arange(-4, 5) ** 2, np.arange(-4, 5) ** 2), np.arange(-4, 5) ** 2) <= 16
+    want = shape & ~ndimage.binary_opening(shape, structure=ball)
+    assert np.array_equal(metrics.thin_parts(shape, 4.0), want)
+
+
+def test_voxel_flags_on_an_open_surface_are_refused():
+    sheet = trimesh.creation.box((1.0, 1.0, 0.2))
+    sheet.update_faces(sheet.face_normals[:, 2] < 0.5)  # no top: an open surface
+    sheet.remove_unreferenced_vertices()
+    with pytest.raises(ParameterError, match="threshold would have no effect"):
+        pipeline.denoise_mesh(sheet, threshold=12)
+    pipeline.denoise_mesh(sheet, resolution=64)  # the resolution decides what a solid is: no refusal
+
+
+def test_a_given_threshold_runs_the_voxel_stage_on_a_fine_noise_mesh():
+    rng = np.random.default_rng(0)
+    box = trimesh.creation.box((1.0, 1.0, 1.0)).subdivide().subdivide().subdivide()
+    noisy = trimesh.Trimesh(box.vertices + rng.normal(0, 0.03, box.vertices.shape), box.faces)
+    progress = Progress(enabled=False)
+    pipeline.denoise_mesh_detailed(noisy, DenoiseParams(threshold=12, resolution=64), progress)
+    assert "foreground/importance" in progress.timings  # the voxel stage ran
+    progress = Progress(enabled=False)
+    pipeline.denoise_mesh_detailed(noisy, DenoiseParams(resolution=64), progress)
+    assert "foreground/importance" not in progress.timings  # left to itself it skips it (fine noise)
+
+
+def test_the_new_mesh_warns_when_it_drops_colours(legged):
+    noise = add_noise(voxelize(legged, 128, 20)[0], p=0.006, r=2.1, h=3, l=6, seed=2)
+    from skelfilter import surface
+    from skelfilter.voxelize import grid_for_bounds
+    noisy = surface.mask_to_mesh(noise.noisy, grid_for_bounds(legged.bounds, 128, 20))
+    noisy.visual.vertex_colors = np.tile([200, 30, 30, 255], (len(noisy.vertices), 1)).astype(np.uint8)
+    with pytest.warns(UserWarning, match="no vertex colours"):
+        pipeline.denoise_mesh(noisy, resolution=128, noise_height=8.0)

@@ -1,0 +1,137 @@
+"""Noise estimate and feature restoration: against brute force on small grids, and the properties."""
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from skelfilter import feature_restore, noise_estimate
+
+
+def _brute_height(part, base):
+    """Distance from each voxel of ``part`` to the nearest voxel of ``base``, by listing all pairs."""
+    p, b = np.argwhere(part), np.argwhere(base)
+    d = np.sqrt(((p[:, None, :] - b[None, :, :]) ** 2).sum(axis=2)).min(axis=1)
+    out = np.zeros(part.shape, dtype=np.float64)
+    out[tuple(p.T)] = d
+    return out
+
+
+def _block(shape=(40, 40, 40), lo=8, hi=32):
+    v = np.zeros(shape, dtype=bool)
+    v[lo:hi, lo:hi, lo:hi] = True
+    return v
+
+
+def _bumps(body, count, height, seed=0, radius=1):
+    """``body`` with ``count`` square columns ``2 radius + 1`` wide and ``height`` high on its top face."""
+    rng = np.random.default_rng(seed)
+    top = np.flatnonzero(body.any(axis=(0, 1)))[-1]
+    xs = np.flatnonzero(body.any(axis=(1, 2)))
+    ys = np.flatnonzero(body.any(axis=(0, 2)))
+    out = body.copy()
+    for _ in range(count):
+        x = rng.integers(xs[0] + radius, xs[-1] - radius + 1)
+        y = rng.integers(ys[0] + radius, ys[-1] - radius + 1)
+        out[x - radius:x + radius + 1, y - radius:y + radius + 1, top + 1:top + 1 + height] = True
+    return out
+
+
+def test_height_above_matches_brute_force():
+    rng = np.random.default_rng(3)
+    base = np.zeros((14, 15, 16), dtype=bool)
+    base[3:8, 4:9, 5:10] = True
+    part = (rng.random(base.shape) < 0.2) & ~base
+    box, height = noise_estimate.height_above(part, base, reach=20.0)
+    full = np.zeros(base.shape, dtype=np.float32)
+    full[box] = height
+    np.testing.assert_allclose(full, _brute_height(part, base), atol=1e-5)
+
+
+def test_height_above_is_capped_far_from_the_base():
+    base = np.zeros((30, 10, 10), dtype=bool)
+    base[1:3, 4:6, 4:6] = True
+    part = np.zeros_like(base)
+    part[20:28, 4:6, 4:6] = True
+    box, height = noise_estimate.height_above(part, base, reach=3.0)
+    assert (height[part[box]] >= 3.0).all()
+
+
+def test_clean_block_passes_as_noise_free():
+    block = _block()
+    assert not noise_estimate.estimate_noise(block, block, 24).found
+
+
+def test_many_low_bumps_are_found_with_their_height():
+    body = _block((80, 80, 50), 10, 70)
+    body[:, :, 30:] = False
+    noisy = _bumps(body, 60, 4, seed=1)
+    estimate = noise_estimate.estimate_noise(noisy, body, 60)
+    assert estimate.found
+    assert 3.5 <= estimate.height <= 4.5  # the columns stand 4 voxels above the body
+    assert "4." in estimate.describe()
+
+
+def test_a_few_tall_features_are_not_noise():
+    body = _block((80, 80, 70), 10, 70)
+    body[:, :, 30:] = False
+    legs = body.copy()
+    for x, y in ((20, 20), (20, 60), (60, 20), (60, 60)):
+        legs[x - 1:x + 2, y - 1:y + 2, 30:60] = True  # 30 voxels tall: above HIGHEST_NOISE
+    assert not noise_estimate.estimate_noise(legs, body, 60).found
+
+
+def test_features_by_extent_gives_back_the_tall_parts_whole():
+    body = _block((60, 60, 70), 10, 50)
+    body[:, :, 30:] = False
+    shape = _bumps(body, 30, 3, seed=2)
+    shape[20:23, 20:23, 30:60] = True  # a leg 30 voxels tall
+    restored = feature_restore.features_by_extent(shape, body, height=5.0)
+    leg = np.zeros_like(shape)
+    leg[20:23, 20:23, 30:60] = True
+    assert (restored >= leg).all()
+    # the bumps far from the leg stay removed
+    bumps = shape & ~body & ~ndimage.binary_dilation(leg, iterations=8)
+    assert bumps.any() and not (restored & bumps).any()
+
+
+def test_connections_rejoin_what_the_pruning_cut_apart():
+    shape = np.zeros((60, 30, 30), dtype=bool)
+    shape[5:25, 5:25, 5:25] = True
+    shape[35:55, 5:25, 5:25] = True
+    shape[25:35, 13:17, 13:17] = True  # the neck
+    pruned = shape.copy()
+    pruned[25:35] = False
+    pruned[24:36, 10:20, 10:20] = False
+    bridge = feature_restore.connections(shape, pruned, width=2.0)
+    joined = pruned | bridge
+    assert ndimage.label(joined, structure=np.ones((3, 3, 3)))[1] == 1
+    assert not (bridge & ~shape).any()
+
+
+def test_connections_leave_one_piece_alone():
+    shape = _block()
+    pruned = shape.copy()
+    pruned[8:12] = False
+    assert not feature_restore.connections(shape, pruned, width=3.0).any()
+
+
+def test_skin_far_from_noise():
+    body = _block((50, 50, 50), 10, 40)
+    shape = body.copy()
+    shape[20:23, 20:23, 40:46] = True  # a tall removed column
+    pruned = body.copy()
+    pruned[10, :, :] = False  # a one-voxel skin far away, on the other side
+    pruned[:, :, 39] = False  # a skin right under the column and around it
+    skin = feature_restore.skin_far_from_noise(shape, pruned, reach=3.0)
+    assert skin[10, 15:35, 15:35].all()
+    assert not skin[20:23, 20:23, 39].any()
+    assert not (skin & ~shape).any()
+
+
+@pytest.mark.parametrize("height", [2.0, 5.0])
+def test_features_by_extent_never_adds_outside_the_removed_set(height):
+    rng = np.random.default_rng(5)
+    shape = ndimage.binary_closing(rng.random((30, 30, 30)) < 0.55, iterations=2)
+    pruned = ndimage.binary_erosion(shape, iterations=2)
+    restored = feature_restore.features_by_extent(shape, pruned, height)
+    assert not (restored & ~(shape & ~pruned)).any()
