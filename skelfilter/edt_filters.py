@@ -9,7 +9,7 @@ from scipy import ndimage
 from numba import njit, prange
 
 from .errors import ParameterError
-from .neighbourhood import OFFSETS_26, ball_offsets, bounding_box, flat_offsets, unravel
+from .neighbourhood import OFFSETS_26, ball_offsets, bounding_box, flat_offsets, push, unravel
 
 
 @njit(cache=True, parallel=True)
@@ -168,10 +168,7 @@ def _peel(mask, found, steps, shape, max_neighbours):
             for k in range(1, nz - 1):
                 v = (i * ny + j) * nz + k
                 if mask[v] and _count(mask, v, steps) <= max_neighbours:
-                    if top == stack.size:
-                        stack = np.concatenate((stack, np.empty(stack.size, dtype=np.int64)))
-                    stack[top] = v
-                    top += 1
+                    stack, top = push(stack, top, v)
     while top > 0:
         top -= 1
         v = stack[top]
@@ -182,10 +179,7 @@ def _peel(mask, found, steps, shape, max_neighbours):
         for step in steps:
             u = v + step
             if mask[u]:
-                if top == stack.size:
-                    stack = np.concatenate((stack, np.empty(stack.size, dtype=np.int64)))
-                stack[top] = u
-                top += 1
+                stack, top = push(stack, top, u)
 
 
 @njit(cache=True)

@@ -11,7 +11,7 @@ import numba
 import numpy as np
 from scipy import ndimage
 
-from .neighbourhood import OFFSETS_26, bounding_box, flat_offsets
+from .neighbourhood import OFFSETS_26, bounding_box, flat_offsets, push
 from .noise_estimate import height_above
 
 CUBE = np.ones((3, 3, 3), dtype=bool)
@@ -89,10 +89,7 @@ def _descend(height, found, seeds, steps, tolerance):
     for s in seeds:
         if level[s] < height[s]:
             level[s] = height[s]
-            if top == stack.size:
-                stack = np.concatenate((stack, np.empty(stack.size, dtype=np.int64)))
-            stack[top] = s
-            top += 1
+            stack, top = push(stack, top, s)
     while top > 0:
         top -= 1
         v = stack[top]
@@ -104,10 +101,7 @@ def _descend(height, found, seeds, steps, tolerance):
             if new <= level[u]:
                 continue
             level[u] = new
-            if top == stack.size:
-                stack = np.concatenate((stack, np.empty(stack.size, dtype=np.int64)))
-            stack[top] = u
-            top += 1
+            stack, top = push(stack, top, u)
     for v in range(height.size):
         found[v] = level[v] >= 0.0
 

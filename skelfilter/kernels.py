@@ -25,7 +25,8 @@ def compile_kernels():
     signals.start_workers_shielded()
     clean = io.load_mesh(demo.sample_path())
     noisy = pipeline.noisy_mesh(clean, NoiseParams(resolution=RESOLUTION, seed=1))[0]
-    for params in (DenoiseParams(resolution=RESOLUTION, output_mesh="closed"),
+    # A given noise height: at this size no noise is found, and the features are given back by it.
+    for params in (DenoiseParams(resolution=RESOLUTION, output_mesh="closed", noise_height=2.0),
                    DenoiseParams(resolution=RESOLUTION, output_mesh="input"),
                    DenoiseParams(resolution=RESOLUTION, preset="thesis")):
         pipeline.denoise_mesh(noisy, params)

@@ -10,6 +10,7 @@ Conventions used throughout skelfilter:
 * distances are in voxels unless a name says ``_world``.
 """
 
+import numba
 import numpy as np
 
 # The 26 neighbours of the origin (the 3x3x3 cube minus its centre), eq. 7.12's b.
@@ -73,3 +74,13 @@ def bounding_box(volume, margin=0):
             return None
         box.append(slice(max(int(hit[0]) - margin, 0), int(hit[-1]) + 1 + margin))
     return tuple(box)
+
+
+@numba.njit(cache=True)
+def push(stack, top, value):
+    """Push ``value`` on the int64 array ``stack`` whose first ``top`` entries are in use, doubling it
+    when full (numba kernels' work lists); returns the stack and the new ``top``."""
+    if top == stack.size:
+        stack = np.concatenate((stack, np.empty(stack.size, dtype=np.int64)))
+    stack[top] = value
+    return stack, top + 1
