@@ -34,7 +34,7 @@ LEAST_PEAK = 3.0  # voxels: lower peaks are skins and relief (the clean shapes' 
 HIGHEST_NOISE = 0.075  # of the size: taller peaks are features whatever the estimate (12 voxels at 160)
 CELL = 1.0 / 20.0  # of the size: the side of the cells over which the coverage is counted
 LEAST_COVERAGE = 0.08  # share of surface cells with a peak from which noise is found
-HEIGHT_QUANTILE = 95.0
+HEIGHT_QUANTILE = 99.0
 PEAK_WINDOW = 5  # voxels: the side of the window in which a peak is the highest
 
 
