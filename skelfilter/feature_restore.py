@@ -11,6 +11,7 @@ import numba
 import numpy as np
 from scipy import ndimage
 
+from .distance import distance_and_features
 from .neighbourhood import OFFSETS_26, bounding_box, flat_offsets, push
 from .noise_estimate import height_above
 
@@ -168,6 +169,6 @@ def skin_far_from_noise(stage_set, pruned, reach, tall=2.0):
     if not noise.any():
         out[box] = removed[box]
         return out
-    out[box] = removed[box] & (ndimage.distance_transform_edt(~noise) > reach)
+    out[box] = removed[box] & (distance_and_features(~noise)[0] > reach)
     return out
 

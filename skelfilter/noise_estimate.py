@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
+from .distance import distance_and_features
 from .neighbourhood import bounding_box
 
 LEAST_PEAK = 3.0  # voxels: lower peaks are skins and relief (the clean shapes' peaks are mostly 2-3)
@@ -87,7 +88,7 @@ def height_above(part, base, reach):
     far = ~base[box]
     if far.all():  # no base in reach: every voxel is far
         return box, np.where(part[box], np.float32(reach), np.float32(0))
-    height = ndimage.distance_transform_edt(far).astype(np.float32)
+    height = distance_and_features(far)[0]
     height[~part[box]] = 0.0
     return box, height
 
@@ -144,5 +145,8 @@ def estimate_noise(stage_set, pruned, resolution, side="bumps"):
     coverage = len(_cells(peaks, box, cell)) / surface if count else 0.0
     if coverage < LEAST_COVERAGE:
         return NoiseEstimate(side, False, 0.0, float(coverage), int(count))
-    heights = ndimage.maximum(height, labels, np.arange(1, count + 1))
+    # The highest voxel of each plateau of peaks (on the peak voxels only: no sort of the whole box).
+    heights = np.zeros(count + 1, dtype=np.float32)
+    np.maximum.at(heights, labels[peaks], height[peaks])
+    heights = heights[1:]
     return NoiseEstimate(side, True, float(np.percentile(heights, HEIGHT_QUANTILE)), float(coverage), int(count))
