@@ -237,10 +237,13 @@ def keep_features(stage_set, stage, params, side, progress):
 def _restore(mask, field, restored):
     """Add ``restored`` to the reconstruction ``mask`` and its ``field`` (in place): inside at half a
     voxel from the surface, which lies on the voxels' faces as for every voxel of the input."""
+    box = bounding_box(restored, margin=1)
+    if box is None:
+        return
     mask |= restored
     np.maximum(field, 0.5, out=field, where=restored)
-    rim = ndimage.binary_dilation(restored, structure=np.ones((3, 3, 3), dtype=bool)) & ~mask
-    np.maximum(field, -0.5, out=field, where=rim)
+    rim = ndimage.binary_dilation(restored[box], structure=np.ones((3, 3, 3), dtype=bool)) & ~mask[box]
+    np.maximum(field[box], -0.5, out=field[box], where=rim)
 
 
 def _fill_outside(volume, box, value):
@@ -383,8 +386,9 @@ def denoise_mesh_detailed(mesh, params=None, progress=None, **overrides):
     frame = Frame.of(validate_mesh(mesh))
     unit = frame.to_unit(mesh)
     closed, kept_vertices, result, grid = _denoise_unit(unit, params, progress)
-    if closed is not None and params.output_mesh == "auto" and _attributes(mesh):
-        warnings.warn(f"the new closed mesh has no {_attributes(mesh)}; output_mesh input keeps them "
+    lost = _attributes(mesh) if closed is not None and params.output_mesh == "auto" else ""
+    if lost:
+        warnings.warn(f"the new closed mesh has no {lost}; output_mesh input keeps them "
                       "(the input mesh with its vertices moved)", stacklevel=2)
     out = frame.to_world(closed) if closed is not None else frame.moved(mesh, unit, kept_vertices)
     return out, result, frame.grid_to_world(grid)
@@ -394,6 +398,7 @@ def _denoise_unit(mesh, params, progress):
     """`denoise_mesh_detailed` on a mesh in its unit frame: (a new closed mesh or None, the moved
     vertices of ``mesh`` or None, the DenoiseResult, the Grid)."""
     given = voxel_fields_given(params)
+    asked = [name for name in given if name != "resolution"]  # the resolution also tells solids from surfaces
     if params.resolution is None:
         params = params.with_(resolution=_fitting_resolution(mesh, params))
         progress.note(f"resolution {params.resolution} voxels (from the mesh's mean edge length)")
@@ -406,7 +411,7 @@ def _denoise_unit(mesh, params, progress):
         with progress.step("fine noise"):
             fine = output_choice.fine_noise(mesh)
         # Voxel-stage parameters given by the caller ask for the voxel stage: it runs.
-        if fine >= output_choice.FINE_NOISE and not [name for name in given if name != "resolution"]:
+        if fine >= output_choice.FINE_NOISE and not asked:
             skipped = (f"fine noise {fine:.3f} (from {output_choice.FINE_NOISE:g}): the input mesh comes back, "
                        "smoothed by the fine pass")
     if skipped is None and output != "closed":
@@ -418,9 +423,8 @@ def _denoise_unit(mesh, params, progress):
                 skipped = ("the input is an open surface: its own mesh comes back, smoothed by the fine pass "
                            "(the voxel stage needs a solid; --close makes one)")
     if skipped is not None:
-        ignored = [name for name in given if name != "resolution"]
-        if ignored:
-            raise ParameterError(f"{', '.join(ignored)} would have no effect: {skipped}; output_mesh closed runs "
+        if asked:
+            raise ParameterError(f"{', '.join(asked)} would have no effect: {skipped}; output_mesh closed runs "
                                  "the voxel stage on any input")
         if given:
             skipped += f" (resolution {params.resolution} was used only to tell a solid from a surface)"
