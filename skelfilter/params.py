@@ -86,10 +86,10 @@ def build(cls, base=None, **values):
 PRESETS = {
     "default": {"stages": "foreground", "threshold": None, "threshold_relative": 30.0 / 160.0,
                 "cap_factor": 1.0, "unchanged_surface": "input", "thin_radius_relative": 4.0 / 160.0,
-                "output_mesh": "auto", "keep_features": "on"},
+                "output_mesh": "auto", "keep_features": "on", "fine_pass": "on"},
     "thesis": {"stages": "both", "threshold": 18.0, "threshold_relative": None, "cap_factor": 2.0,
                "unchanged_surface": "reconstruction", "thin_radius_relative": 1.0, "output_mesh": "closed",
-               "keep_features": "off"},
+               "keep_features": "off", "fine_pass": "off"},
 }
 
 
@@ -125,12 +125,16 @@ class DenoiseParams:
         "'preset': the preset's (default: auto; thesis: closed)",
         choices=("preset", "auto", "input", "closed"),
     )
-    fine_pass: bool = _p(
-        True,
+    fine_pass: str = _p(
+        "preset",
         "Fine pass",
-        "with the input mesh as output, smooth the fine noise left at the input's own resolution "
-        "while keeping edges: bilateral filtering of the face normals (Zheng et al. 2011), then "
-        "vertices fitted to them (Sun et al. 2007), as strong as the noise measured on the mesh",
+        "smooth the noise below the skeleton's scale, keeping edges and thin parts, as strong as the "
+        "noise measured on the input (none found: nothing changes): with the input mesh as output, "
+        "bilateral filtering of the face normals (Zheng et al. 2011), then vertices fitted to them "
+        "(Sun et al. 2007); on a volume, before the voxel stage, Gaussians of the mask from sigma 2 "
+        "voxels down, each where it removes or adds no part standing out of the noise, islands and "
+        "pits removed; 'preset': the preset's (default: on; thesis: off)",
+        choices=("preset", "on", "off"),
     )
     padding: int | None = _p(
         None,
@@ -276,10 +280,10 @@ class DenoiseParams:
     def __post_init__(self):
         if self.preset not in PRESETS:
             raise ParameterError(f"preset must be one of {', '.join(PRESETS)}, got {self.preset!r}")
+        if isinstance(self.fine_pass, (bool, np.bool_)):  # the Python API's earlier true/false
+            object.__setattr__(self, "fine_pass", "on" if self.fine_pass else "off")
         self._apply_preset()
         check_limits(self)
-        if not isinstance(self.fine_pass, bool):
-            raise ParameterError(f"fine_pass must be true or false, got {self.fine_pass!r}")
         for f in fields(self):
             choices = f.metadata.get("choices")
             if choices and getattr(self, f.name) not in choices:
@@ -298,7 +302,7 @@ class DenoiseParams:
     def _apply_preset(self):
         """Fill the fields left unset with the preset's values (the dataclass is frozen)."""
         preset = PRESETS[self.preset]
-        for name in ("stages", "unchanged_surface", "output_mesh", "keep_features"):
+        for name in ("stages", "unchanged_surface", "output_mesh", "keep_features", "fine_pass"):
             if getattr(self, name) == "preset":
                 object.__setattr__(self, name, preset[name])
         if self.thin_radius_relative is None:

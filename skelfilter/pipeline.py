@@ -12,7 +12,7 @@ import numpy as np
 from scipy import ndimage
 
 from . import (edt_filters, feature_restore, importance, noise, noise_estimate, normal_filtering, output_choice,
-               reconstruct, saliency, skeleton, surface, vertex_projection, voxelize)
+               reconstruct, saliency, skeleton, surface, vertex_projection, volume_fine_pass, voxelize)
 from . import spacing as voxel_spacing
 from .distance import distance_and_features
 from .errors import InputError, ParameterError, ResourceError
@@ -51,6 +51,8 @@ class DenoiseResult:
     field: np.ndarray  # > 0 inside; its 0-level is the sub-voxel surface
     stages: dict = field(default_factory=dict)  # "foreground"/"background" -> StageResult
     noise: dict = field(default_factory=dict)  # "foreground"/"background" -> noise_estimate.NoiseEstimate
+    fine_noise: object = None  # a volume's volume_fine_pass.FineNoise, where the fine pass changed it
+    stages_input: np.ndarray = None  # internal: the cubic volume the stages ran on
     timings: dict = field(default_factory=dict)
     voxels_changed: int = 0  # voxels added or removed: on the voxel grid of a mesh, on a volume's own
 
@@ -185,12 +187,14 @@ def denoise_padded(volume, params, progress):
         _fill_outside(current, box, False)
         np.negative(field, out=field)
         _fill_outside(field, tuple(slice(b.start - 1, b.stop + 1) for b in box), -1.0)
-    if params.edt_filter == "minify":
+    # A shape in which no stage found noise passes through whole: no specks or spikes taken off either.
+    passes_through = params.keep_features == "on" and not any(_restored_height(params, e) for e in result.noise.values())
+    if params.edt_filter == "minify" and not passes_through:
         with progress.step("specks"):
             specks = edt_filters.specks(current, params.minify_radius)
             current ^= specks
             field[specks] = np.where(current[specks], 1.0, -1.0)
-    if params.thin_radius_voxels is not None:
+    if params.thin_radius_voxels is not None and not passes_through:
         with progress.step("needles"):
             spikes = edt_filters.needles(current)
             current &= ~spikes
@@ -217,11 +221,7 @@ def keep_features(stage_set, stage, params, side, progress):
     with progress.step("noise estimate"):
         estimate = noise_estimate.estimate_noise(stage_set, stage.mask, params.resolution, side)
     progress.note(f"noise: {estimate.describe()}")
-    height = params.noise_height
-    if height is None and estimate.found:
-        height = estimate.height + feature_restore.MARGIN
-    elif height is None and params.threshold_given:
-        height = noise_estimate.HIGHEST_NOISE * params.resolution
+    height = _restored_height(params, estimate)
     with progress.step("features kept"):
         if height is None:
             restored = stage_set & ~stage.mask
@@ -232,6 +232,18 @@ def keep_features(stage_set, stage, params, side, progress):
                                                             feature_restore.SKIN_REACH)
         _restore(stage.mask, stage.field, restored)
     return estimate
+
+
+def _restored_height(params, estimate):
+    """Voxels: the height from which a removed part is a feature, or None where the stage passes its
+    input through (no noise found, neither the noise height nor the threshold given)."""
+    if params.noise_height is not None:
+        return params.noise_height
+    if estimate.found:
+        return estimate.height + feature_restore.MARGIN
+    if params.threshold_given:
+        return noise_estimate.HIGHEST_NOISE * params.resolution
+    return None
 
 
 def _restore(mask, field, restored):
@@ -305,17 +317,43 @@ def denoise_volume(volume, params=None, progress=None, spacing=None, affine=None
             cubic = input_field > 0
     else:
         cubic = volume
-        input_field = voxel_spacing.signed_distance(volume, (1.0, 1.0, 1.0)) if keep else None
-    result = _denoise_cubic(cubic, params, progress)
+        input_field = None
+    result = _fine_pass_then_stages(cubic, params, progress)
     if keep:
         with progress.step("input surface"):
-            surface.keep_input_field(result.field, result.mask, cubic, input_field)
+            if input_field is None or result.stages_input is not cubic:
+                input_field = voxel_spacing.signed_distance(result.stages_input, (1.0, 1.0, 1.0))
+            surface.keep_input_field(result.field, result.mask, result.stages_input, input_field)
+    result.stages_input = None
     del cubic, input_field
     if resample:
         with progress.step("back to the input's voxels"):
             result.field = voxel_spacing.from_isotropic(result.field, spacing, volume.shape)
             result.mask = result.field > 0
     result.voxels_changed = int(np.count_nonzero(result.mask != volume))
+    return result
+
+
+def _fine_pass_then_stages(cubic, params, progress):
+    """The volume fine pass (`volume_fine_pass.fine_pass`), then the stages on its result.
+
+    The fine pass is for noise below the skeleton's scale. Where the stages still find noise at the
+    skeleton's scale after it, the noise is bumps the fine pass would have merged (it fills the
+    valleys between them, and merged bumps are kept): the fine pass is undone and the stages run on
+    the input as it was. ``result.stages_input`` is the volume the stages ran on.
+    """
+    if params.fine_pass == "on":
+        with progress.step("fine pass"):
+            smoothed, fine = volume_fine_pass.fine_pass(cubic)
+        progress.note(fine.describe())
+        if smoothed is not cubic:
+            result = _denoise_cubic(smoothed, params, progress)
+            if not any(e.found for e in result.noise.values()):
+                result.fine_noise, result.stages_input = fine, smoothed
+                return result
+            progress.note("noise at the skeleton's scale: the fine pass is undone, the stages run on the input")
+    result = _denoise_cubic(cubic, params, progress)
+    result.stages_input = cubic
     return result
 
 
@@ -474,7 +512,7 @@ def _kept_vertices(mesh, voxels, params, grid, progress, fine=None):
             vertices, moved = vertex_projection.move_input_vertices(
                 welded, faces, result.mask, occupancy, result.field, surface.mask_field(occupancy), grid,
                 max_move=params.threshold_voxels / 2)
-    fine_pass = params.fine_pass
+    fine_pass = params.fine_pass == "on"
     if fine_pass and not moved.any():
         if fine is None:
             with progress.step("fine noise"):
