@@ -53,6 +53,7 @@ class DenoiseResult:
     noise: dict = field(default_factory=dict)  # "foreground"/"background" -> noise_estimate.NoiseEstimate
     fine_noise: object = None  # a volume's volume_fine_pass.FineNoise, where the fine pass changed it
     stages_input: np.ndarray = None  # internal: the cubic volume the stages ran on
+    passed_through: bool = False  # no stage found noise: the stages gave their input back
     timings: dict = field(default_factory=dict)
     voxels_changed: int = 0  # voxels added or removed: on the voxel grid of a mesh, on a volume's own
 
@@ -189,6 +190,7 @@ def denoise_padded(volume, params, progress):
         _fill_outside(field, tuple(slice(b.start - 1, b.stop + 1) for b in box), -1.0)
     # A shape in which no stage found noise passes through whole: no specks or spikes taken off either.
     passes_through = params.keep_features == "on" and not any(_restored_height(params, e) for e in result.noise.values())
+    result.passed_through = passes_through
     if params.edt_filter == "minify" and not passes_through:
         with progress.step("specks"):
             specks = edt_filters.specks(current, params.minify_radius)
@@ -340,15 +342,21 @@ def _fine_pass_then_stages(cubic, params, progress):
     The fine pass is for noise below the skeleton's scale. Where the stages still find noise at the
     skeleton's scale after it, the noise is bumps the fine pass would have merged (it fills the
     valleys between them, and merged bumps are kept): the fine pass is undone and the stages run on
-    the input as it was. ``result.stages_input`` is the volume the stages ran on.
+    the input as it was. Stages that prune whatever they find (keep_features off, the threshold or
+    the noise height given) run on the input directly. ``result.stages_input`` is the volume the
+    stages ran on.
     """
-    if params.fine_pass == "on":
+    prunes = params.keep_features == "off" or params.noise_height is not None or params.threshold_given
+    if params.fine_pass == "on" and prunes:
+        progress.note("fine pass: not run, the stages prune at the skeleton's scale whatever the noise "
+                      "(keep_features off, or the threshold or the noise height given)")
+    elif params.fine_pass == "on":
         with progress.step("fine pass"):
             smoothed, fine = volume_fine_pass.fine_pass(cubic)
         progress.note(fine.describe())
         if smoothed is not cubic:
             result = _denoise_cubic(smoothed, params, progress)
-            if not any(e.found for e in result.noise.values()):
+            if result.passed_through:
                 result.fine_noise, result.stages_input = fine, smoothed
                 return result
             progress.note("noise at the skeleton's scale: the fine pass is undone, the stages run on the input")
