@@ -327,6 +327,12 @@ class DenoiseParams:
             self.threshold is not None and self.threshold != PRESETS[self.preset]["threshold"])
 
     @property
+    def prunes_whatever_found(self):
+        """Whether the stages prune whatever the noise estimate says: keep_features off, or the noise
+        height or the threshold given (else a stage that finds no noise passes its input through)."""
+        return self.keep_features == "off" or self.noise_height is not None or self.threshold_given
+
+    @property
     def thin_radius_voxels(self):
         """Least half thickness of a kept thin part in voxels; None when no such rule applies."""
         if self.thin_radius_relative >= 1:

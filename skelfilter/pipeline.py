@@ -52,8 +52,6 @@ class DenoiseResult:
     stages: dict = field(default_factory=dict)  # "foreground"/"background" -> StageResult
     noise: dict = field(default_factory=dict)  # "foreground"/"background" -> noise_estimate.NoiseEstimate
     fine_noise: object = None  # a volume's volume_fine_pass.FineNoise, where the fine pass changed it
-    stages_input: np.ndarray = None  # internal: the cubic volume the stages ran on
-    passed_through: bool = False  # no stage found noise: the stages gave their input back
     timings: dict = field(default_factory=dict)
     voxels_changed: int = 0  # voxels added or removed: on the voxel grid of a mesh, on a volume's own
 
@@ -189,8 +187,7 @@ def denoise_padded(volume, params, progress):
         np.negative(field, out=field)
         _fill_outside(field, tuple(slice(b.start - 1, b.stop + 1) for b in box), -1.0)
     # A shape in which no stage found noise passes through whole: no specks or spikes taken off either.
-    passes_through = params.keep_features == "on" and not any(_restored_height(params, e) for e in result.noise.values())
-    result.passed_through = passes_through
+    passes_through = _passes_through(params, result)
     if params.edt_filter == "minify" and not passes_through:
         with progress.step("specks"):
             specks = edt_filters.specks(current, params.minify_radius)
@@ -234,6 +231,11 @@ def keep_features(stage_set, stage, params, side, progress):
                                                             feature_restore.SKIN_REACH)
         _restore(stage.mask, stage.field, restored)
     return estimate
+
+
+def _passes_through(params, result):
+    """Whether the stages gave their input back: no stage found noise and none prunes whatever it finds."""
+    return not params.prunes_whatever_found and not any(e.found for e in result.noise.values())
 
 
 def _restored_height(params, estimate):
@@ -320,14 +322,13 @@ def denoise_volume(volume, params=None, progress=None, spacing=None, affine=None
     else:
         cubic = volume
         input_field = None
-    result = _fine_pass_then_stages(cubic, params, progress)
+    result, stages_input = _fine_pass_then_stages(cubic, params, progress)
     if keep:
         with progress.step("input surface"):
-            if input_field is None or result.stages_input is not cubic:
-                input_field = voxel_spacing.signed_distance(result.stages_input, (1.0, 1.0, 1.0))
-            surface.keep_input_field(result.field, result.mask, result.stages_input, input_field)
-    result.stages_input = None
-    del cubic, input_field
+            if input_field is None or stages_input is not cubic:
+                input_field = voxel_spacing.signed_distance(stages_input, (1.0, 1.0, 1.0))
+            surface.keep_input_field(result.field, result.mask, stages_input, input_field)
+    del cubic, input_field, stages_input
     if resample:
         with progress.step("back to the input's voxels"):
             result.field = voxel_spacing.from_isotropic(result.field, spacing, volume.shape)
@@ -337,17 +338,17 @@ def denoise_volume(volume, params=None, progress=None, spacing=None, affine=None
 
 
 def _fine_pass_then_stages(cubic, params, progress):
-    """The volume fine pass (`volume_fine_pass.fine_pass`), then the stages on its result.
+    """The volume fine pass (`volume_fine_pass.fine_pass`), then the stages on its result: the
+    DenoiseResult and the volume the stages ran on.
 
     The fine pass is for noise below the skeleton's scale. Where the stages still find noise at the
     skeleton's scale after it, the noise is bumps the fine pass would have merged (it fills the
     valleys between them, and merged bumps are kept): the fine pass is undone and the stages run on
-    the input as it was. Stages that prune whatever they find (keep_features off, the threshold or
-    the noise height given) run on the input directly. ``result.stages_input`` is the volume the
-    stages ran on.
+    the input as it was. Stages that prune whatever they find (`DenoiseParams.prunes_whatever_found`)
+    run on the input directly.
     """
-    prunes = params.keep_features == "off" or params.noise_height is not None or params.threshold_given
-    if params.fine_pass == "on" and prunes:
+    _cubic_params(cubic, params)  # too large a grid is refused before the fine pass runs
+    if params.fine_pass == "on" and params.prunes_whatever_found:
         progress.note("fine pass: not run, the stages prune at the skeleton's scale whatever the noise "
                       "(keep_features off, or the threshold or the noise height given)")
     elif params.fine_pass == "on":
@@ -356,22 +357,26 @@ def _fine_pass_then_stages(cubic, params, progress):
         progress.note(fine.describe())
         if smoothed is not cubic:
             result = _denoise_cubic(smoothed, params, progress)
-            if result.passed_through:
-                result.fine_noise, result.stages_input = fine, smoothed
-                return result
+            if _passes_through(params, result):
+                result.fine_noise = fine
+                return result, smoothed
             progress.note("noise at the skeleton's scale: the fine pass is undone, the stages run on the input")
-    result = _denoise_cubic(cubic, params, progress)
-    result.stages_input = cubic
-    return result
+    return _denoise_cubic(cubic, params, progress), cubic
 
 
-def _denoise_cubic(volume, params, progress):
-    """`denoise_volume` on a non-empty boolean volume of cubic voxels."""
+def _cubic_params(volume, params):
+    """The parameters for a volume of cubic voxels (its extent as the resolution) and its padding,
+    checked to fit in memory."""
     extent = max(s.stop - s.start for s in bounding_box(volume))
     params = params.with_(resolution=max(extent, 16))
     pad = params.padding_voxels
-    padded_shape = tuple(s + 2 * pad for s in volume.shape)
-    check_grid_fits(padded_shape, padding=pad, padding_from=_padding_from(params))
+    check_grid_fits(tuple(s + 2 * pad for s in volume.shape), padding=pad, padding_from=_padding_from(params))
+    return params, pad
+
+
+def _denoise_cubic(volume, params, progress):
+    """The stages on a non-empty boolean volume of cubic voxels."""
+    params, pad = _cubic_params(volume, params)
     return_freed_memory()
     padded = np.pad(volume, pad)
     result = denoise_padded(padded, params, progress)
@@ -482,9 +487,7 @@ def _denoise_unit(mesh, params, progress):
     result.voxels_changed = int(np.count_nonzero(result.mask != occupancy))
     voxel_moves = output == "input"
     if output == "auto":
-        found = [e for e in result.noise.values() if e.found] or params.noise_height is not None \
-            or params.threshold_given or params.keep_features == "off"
-        output = "closed" if found and result.voxels_changed else "input"
+        output = "closed" if not _passes_through(params, result) and result.voxels_changed else "input"
         progress.note(f"output: {'a new closed mesh' if output == 'closed' else 'the input mesh'} "
                       f"({'noise at the skeleton scale removed' if output == 'closed' else 'no noise at the skeleton scale'})")
     if output == "closed":

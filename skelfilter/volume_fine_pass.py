@@ -63,7 +63,7 @@ class FineNoise:
     found: bool
     roughness: float
     height: float
-    widest: float = 0.0
+    widest: float
 
     @property
     def levels(self):
@@ -108,13 +108,13 @@ def measure_noise(mask):
     """
     box = bounding_box(mask, margin=4)
     if box is None:
-        return FineNoise(False, 0.0, 0.0)
+        return FineNoise(False, 0.0, 0.0, 0.0)
     mask = mask[box]
     light = smoothed(mask, MEASURE_SIGMA)
     boundary = _boundary(light)
     roughness = float(np.count_nonzero(mask[boundary] != light[boundary]) / max(np.count_nonzero(boundary), 1))
     if roughness < LEAST_ROUGHNESS:
-        return FineNoise(False, roughness, 0.0)
+        return FineNoise(False, roughness, 0.0, 0.0)
     return FineNoise(True, roughness, HEIGHT_AT_ZERO + HEIGHT_PER_ROUGHNESS * roughness,
                      min(SIGMA_PER_ROUGHNESS * roughness, LEVELS[0]))
 
@@ -127,15 +127,13 @@ def _features(mask, smooth, height):
     return kept
 
 
-def fine_pass(mask, noise=None):
+def fine_pass(mask):
     """Smooth the fine noise of a binary volume, keeping whatever stands out of it.
 
     Parameters
     ----------
     mask : bool ndarray
         The shape (where it touches the array's faces, smoothed as if mirrored there).
-    noise : FineNoise, optional
-        `measure_noise` of ``mask``, when already measured.
 
     Returns
     -------
@@ -143,7 +141,7 @@ def fine_pass(mask, noise=None):
         The smoothed shape (``mask`` itself, unchanged, when no noise is found).
     noise : FineNoise
     """
-    noise = noise or measure_noise(mask)
+    noise = measure_noise(mask)
     if not noise.found:
         return mask, noise
     margin = int(np.ceil(3 * LEVELS[0] + noise.height)) + GROW + 2
