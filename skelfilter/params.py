@@ -360,7 +360,7 @@ class DenoiseParams:
         return replace(self, **changes)
 
 
-# The fields that only the voxel stage reads (all but these).
+# The fields a mesh reads outside the voxel stage (all the others are the voxel stage's).
 MESH_FIELDS = ("preset", "output_mesh", "fine_pass")
 
 
