@@ -15,7 +15,8 @@ Measured on the case's grid against the clean mask: ``error_ratio`` = |out xor c
 clean| (below 1 improves on the input), ``thin_kept`` (`skelfilter.metrics.thin_parts`, radius 4)
 and the 26-connected ``components`` against the clean mask's. The shapes of ``quality.HELD_OUT`` are
 reported apart. Each method also runs on the clean masks: the share of their voxels it changes (a
-clean segmentation should pass through). Writes ``results.json`` and ``table.md`` into ``--out``.
+clean segmentation should pass through). Writes ``results.json`` and ``table.md`` into ``--out``
+(``--pictures``: also ``pictures.png``, the surfaces of a few thin-featured cases).
 """
 
 import argparse
@@ -97,6 +98,37 @@ def run_case(shape, strength, resolution, seed=1):
     return row
 
 
+PICTURE_CASES = (("airplane", "strong"), ("chair", "weak"), ("quadruped", "strong"), ("fandisk", "strong"))
+PICTURE_METHODS = ("noisy", "median 3", "gaussian 1.5", "skelfilter default", "clean")
+
+
+def pictures(resolution, path, cases=PICTURE_CASES):
+    """Marching-cubes surfaces of the noisy mask, two baselines, the default and the clean mask, one
+    row per case, written as a PNG."""
+    import matplotlib.pyplot as plt
+    from skelfilter import render, surface
+    from skelfilter.voxelize import Grid
+
+    fig = plt.figure(figsize=(3.2 * len(PICTURE_METHODS), 3.2 * len(cases)), dpi=100)
+    for row, (shape, strength) in enumerate(cases):
+        clean = clean_mask(shape, resolution)
+        noisy = segmentation_noise(clean, STRENGTHS[strength], 1)
+        masks = {"noisy": noisy, "clean": clean, "skelfilter default": pipeline.denoise_volume(noisy).mask,
+                 **{name: BASELINES[name](noisy) for name in PICTURE_METHODS if name in BASELINES}}
+        grid = Grid(origin=(0.0, 0.0, 0.0), pitch=1.0, shape=clean.shape)
+        bounds = None
+        for col, name in enumerate(PICTURE_METHODS):
+            mesh = surface.mask_to_mesh(masks[name], grid)
+            bounds = mesh.bounds if bounds is None else bounds
+            ax = fig.add_subplot(len(cases), len(PICTURE_METHODS), row * len(PICTURE_METHODS) + col + 1,
+                                 projection="3d")
+            render.draw_mesh(ax, mesh, bounds=bounds)
+            ax.set_title(f"{shape} {strength}: {name}" if col == 0 else name, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
 def clean_pass(shape, resolution):
     """What each method changes on the clean mask itself: the share of its voxels."""
     clean = clean_mask(shape, resolution)
@@ -144,6 +176,7 @@ def main(argv=None):
     p.add_argument("--resolution", type=int, default=128)
     p.add_argument("--shapes", default=",".join(SHAPES))
     p.add_argument("--out", default=os.path.join(shapes.ROOT, "volume-output"))
+    p.add_argument("--pictures", action="store_true", help="also draw thin-featured cases (pictures.png)")
     args = p.parse_args(argv)
     rows = []
     for shape in args.shapes.split(","):
@@ -159,6 +192,8 @@ def main(argv=None):
                    "clean": cleans}, f, indent=1)
     text = "".join(table(rows, split) + "\n" for split in ("tuning", "held-out") if any(r["split"] == split for r in rows))
     text += clean_table(cleans)
+    if args.pictures:
+        pictures(args.resolution, os.path.join(args.out, "pictures.png"))
     with open(os.path.join(args.out, "table.md"), "w") as f:
         f.write(text)
     print(text)
