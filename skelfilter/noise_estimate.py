@@ -13,7 +13,9 @@ its convex edges. The three differ in how high they stand above K (the distance 
 So the estimate looks at the *peaks* of the height over X \\ K (local maxima over a 5³ window, at
 least `LEAST_PEAK` voxels high and at most `HIGHEST_NOISE` of the model's size) and at how much of
 the surface they are spread over: the share of surface cells (cubes of `CELL` of the size) holding a
-peak. Noise is found where that share reaches `LEAST_COVERAGE`; its height is the `HEIGHT_QUANTILE`
+peak, a plateau of peaks longer than `RIDGE` counted in one cell only (a feature's ridge,
+pruned along its length, is one plateau however many cells it crosses: a chair's slats at 128 voxels
+covered 10 % of the cells counted voxel by voxel). Noise is found where that share reaches `LEAST_COVERAGE`; its height is the `HEIGHT_QUANTILE`
 quantile of the peaks' heights.
 
 Chosen on the tuning shapes of ``benchmarks/quality.py`` at resolution 160 after a pruning at
@@ -37,6 +39,7 @@ CELL = 1.0 / 20.0  # of the size: the side of the cells over which the coverage 
 LEAST_COVERAGE = 0.08  # share of surface cells with a peak from which noise is found
 HEIGHT_QUANTILE = 99.0
 PEAK_WINDOW = 5  # voxels: the side of the window in which a peak is the highest
+RIDGE = 2 * PEAK_WINDOW  # voxels: a plateau of peaks longer than this is a ridge (counted in one cell)
 
 
 @dataclass(frozen=True)
@@ -98,11 +101,10 @@ def surface_voxels(volume):
     return volume & ~ndimage.binary_erosion(volume)
 
 
-def _cells(volume, box, cell):
-    """Distinct cells (cubes of side ``cell`` voxels on the full grid) holding a set voxel of ``volume``
-    (given over ``box``)."""
-    coords = np.argwhere(volume) + np.array([s.start for s in box])
-    coords //= cell
+def _cells(coords, box, cell):
+    """Distinct cells (cubes of side ``cell`` voxels on the full grid) holding one of the voxels
+    ``coords`` (an (n, 3) array of indices into ``box``)."""
+    coords = (coords + np.array([s.start for s in box])) // cell
     return np.unique((coords[:, 0] * 65536 + coords[:, 1]) * 65536 + coords[:, 2])
 
 
@@ -135,18 +137,26 @@ def estimate_noise(stage_set, pruned, resolution, side="bumps"):
     cell = max(2, int(round(CELL * resolution)))
     removed = stage_set & ~pruned
     surface_box = bounding_box(stage_set, margin=1)
-    surface = len(_cells(surface_voxels(stage_set[surface_box]), surface_box, cell)) if surface_box else 0
+    surface = len(_cells(np.argwhere(surface_voxels(stage_set[surface_box])), surface_box, cell)) if surface_box else 0
     box, height = height_above(removed, pruned, highest + 1)
     if box is None or surface == 0:
         return NoiseEstimate(side, False, 0.0, 0.0, 0)
     top = ndimage.maximum_filter(height, size=PEAK_WINDOW)
     peaks = (height >= LEAST_PEAK) & (height >= top) & (height <= highest)
     labels, count = ndimage.label(peaks, structure=np.ones((3, 3, 3), dtype=bool))
-    coverage = len(_cells(peaks, box, cell)) / surface if count else 0.0
+    # A plateau of peaks longer than RIDGE is a feature's ridge (a slat, a rim pruned along
+    # its length): it counts in one cell, its first voxel's, however many cells it crosses.
+    coords = np.argwhere(peaks)
+    plateau = labels[peaks]  # in the order of coords (both C order)
+    _, first = np.unique(plateau, return_index=True)
+    extent = np.array([max(s.stop - s.start for s in b) for b in ndimage.find_objects(labels)])
+    counted = extent[plateau - 1] <= RIDGE
+    counted[first] = True
+    coverage = len(_cells(coords[counted], box, cell)) / surface if count else 0.0
     if coverage < LEAST_COVERAGE:
         return NoiseEstimate(side, False, 0.0, float(coverage), int(count))
-    # The highest voxel of each plateau of peaks (on the peak voxels only: no sort of the whole box).
+    # The highest voxel of each plateau (on the peak voxels only: no sort of the whole box).
     heights = np.zeros(count + 1, dtype=np.float32)
-    np.maximum.at(heights, labels[peaks], height[peaks])
+    np.maximum.at(heights, plateau, height[peaks])
     heights = heights[1:]
     return NoiseEstimate(side, True, float(np.percentile(heights, HEIGHT_QUANTILE)), float(coverage), int(count))

@@ -80,6 +80,18 @@ def test_a_few_tall_features_are_not_noise():
     assert not noise_estimate.estimate_noise(legs, body, 60).found
 
 
+def test_slats_along_the_surface_are_not_noise():
+    # Long bars standing 4 voxels on the top face (a chair's slats pruned along their length): their
+    # ridges cross many cells (0.11 of them counted voxel by voxel), but each is one plateau.
+    body = _block((80, 80, 50), 10, 70)
+    body[:, :, 30:] = False
+    slats = body.copy()
+    for x in range(14, 70, 8):
+        slats[x:x + 2, 12:68, 30:34] = True
+    estimate = noise_estimate.estimate_noise(slats, body, 60)
+    assert not estimate.found and estimate.coverage < 0.02
+
+
 def test_features_by_extent_gives_back_the_tall_parts_whole():
     body = _block((60, 60, 70), 10, 50)
     body[:, :, 30:] = False
