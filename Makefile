@@ -4,7 +4,7 @@
 PYTHON ?= python3
 PIP ?= $(PYTHON) -m pip
 
-.PHONY: setup demo test bench docs
+.PHONY: setup demo test lint bench docs
 
 # System libraries the wheels need: libusb-1.0-0 (open3d links against it), libosmesa6 (pyvista/VTK
 # draw the comparison's pictures off-screen on the CPU); chromium (the test that opens the report).
@@ -25,6 +25,9 @@ demo: setup
 
 test: setup
 	$(PYTHON) -m pytest -q -p no:cacheprovider tests
+
+lint: setup
+	$(PYTHON) -m ruff check .
 
 bench: setup
 	$(PYTHON) benchmarks/bench_pipeline.py

@@ -26,8 +26,7 @@ PRESET = "thesis"
 
 
 def load(name):
-    folder = os.path.join(ROOT, "skelfilter", "data") if name == "fandisk.obj" else os.path.join(ROOT, "tests", "data")
-    return trimesh.load(os.path.join(folder, name), force="mesh", process=False)
+    return trimesh.load(os.path.join(ROOT, "skelfilter", "data", name), force="mesh", process=False)
 
 
 def cube_mesh():

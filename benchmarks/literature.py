@@ -9,7 +9,7 @@ face-normal angle in degrees / E_v in mean edge lengths) and skelfilter's time:
   spot and twelve (held out).
 - ``literature``: the four pairs of ``shared/data/literature`` (never used to choose anything),
   the acceptance of the everyday-scan issue: skelfilter without flags below MeshLab Taubin (its
-  defaults, ``meshlab_scripts/taubin.mlx``) on both scores on every pair, and below pygel3d's
+  defaults, ``skelfilter/comparison/scripts/taubin.mlx``) on both scores on every pair, and below pygel3d's
   ``hmesh.anisotropic_smooth`` (10 iterations) on the two fandisk pairs.
 
     python benchmarks/literature.py [--part own|literature|all] [--out FILE.md] [--pictures DIR]
@@ -30,8 +30,8 @@ import trimesh
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
-from comparisons.methods import pygel3d_smooth  # noqa: E402
 from skelfilter import io, meshlab, metrics, pipeline  # noqa: E402
+from skelfilter.comparison.methods import pygel3d_smooth  # noqa: E402
 from skelfilter.errors import SkelfilterError  # noqa: E402
 from skelfilter.progress import Progress  # noqa: E402
 
@@ -42,7 +42,7 @@ OWN_SHAPES = {"fandisk": "fandisk.obj", "rocker-arm": "rocker-arm.obj", "bunny":
 HELD_OUT = ("spot", "twelve")
 LEVELS = (0.2, 0.3, 0.5, 0.7)
 SEED = 11
-TAUBIN = os.path.join(ROOT, "meshlab_scripts", "taubin.mlx")
+TAUBIN = os.path.join(ROOT, "skelfilter", "comparison", "scripts", "taubin.mlx")
 
 
 def gaussian_noise(clean, level, seed=SEED):
@@ -90,13 +90,13 @@ def score_row(name, noisy, clean, pictures=None):
 
 def pictures_of(name, meshes, row, path):
     """An overview and a close-up of a sharp edge (noisy, Taubin, pygel3d, skelfilter, clean), each
-    cell drawn by `comparisons.render` with one camera per row, titled with its scores."""
+    cell drawn by `skelfilter.comparison.render` with one camera per row, titled with its scores."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from comparisons import render
+    from skelfilter.comparison import render
 
     view, up = PICTURES[name]
     overview = render.camera_for(meshes[-1], view, up)

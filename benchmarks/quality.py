@@ -32,20 +32,19 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, fields
 
 import numpy as np
+import quality_tables
+import shapes
 import trimesh
+from quality_tables import SPLITS
 
-from comparisons import render, report
-from comparisons.config import Method
-from comparisons.methods import run_method
-from comparisons.run import Reporter, decimate, slug, versions
 from skelfilter import io, metrics, pipeline
+from skelfilter.comparison import render, report
+from skelfilter.comparison.config import Method
+from skelfilter.comparison.methods import run_method
+from skelfilter.comparison.run import Reporter, decimate, slug, versions
 from skelfilter.noise import NoiseResult
 from skelfilter.params import DenoiseParams, NoiseParams
 from skelfilter.voxelize import Grid, grid_for_bounds, voxelize_on_grid
-
-import quality_tables
-import shapes
-from quality_tables import SPLITS
 
 ROOT = shapes.ROOT
 NOISE_KINDS = {
@@ -59,7 +58,7 @@ SEEDS = (1, 2)
 HELD_OUT = ("spot", "l-bracket", "twelve", "stool", "gear")  # reported apart: never look at them while tuning
 QUICK_SHAPES = ("cube", "fandisk", "block", "l-bracket")
 DEFAULT_VARIANTS = ("default", "thesis:preset=thesis")
-SCRIPTS = os.path.join(ROOT, "meshlab_scripts")
+SCRIPTS = os.path.join(ROOT, "skelfilter", "comparison", "scripts")
 RIVALS = {m.name: m for m in (
     Method("laplacian", "meshlab", script=os.path.join(SCRIPTS, "laplacian_surface_preserving.mlx")),
     Method("two-step", "meshlab", script=os.path.join(SCRIPTS, "two_step.mlx")),
@@ -68,7 +67,7 @@ RIVALS = {m.name: m for m in (
     Method("taubin", "meshlab", script=os.path.join(SCRIPTS, "taubin.mlx")),
     Method("meshlib", "meshlib"),
 )}
-MAX_FACES = 60_000  # as comparisons/default.toml: the rivals' input is decimated to this many faces
+MAX_FACES = 60_000  # as skelfilter/comparison/default.toml: the rivals' input is decimated to this many faces
 RIVAL_NICENESS = 10
 CLEAN_PASS_PADDING = 8  # voxels around a clean shape on the grid of the clean pass
 # Bump when the noisy meshes or the scores change meaning: cached ones are then made again.
@@ -107,7 +106,7 @@ class Case:
 
 @dataclass(frozen=True)
 class Setup:
-    """What every task needs to know; ``timeout`` (s) is read by `comparisons.methods.run_method`."""
+    """What every task needs to know; ``timeout`` (s) is read by `skelfilter.comparison.methods.run_method`."""
 
     resolution: int
     cache: str

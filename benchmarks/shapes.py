@@ -1,7 +1,7 @@
 """The clean shapes of the quality benchmark (``benchmarks/quality.py``), as trimesh meshes.
 
 Six come from files (fandisk, the rocker arm, the Stanford bunny, spot, the twelve-sided CAD solid of
-``tests/data/twelve-impulsive`` and trimesh's cube); four CAD parts are built here with manifold3d's
+``skelfilter/data/twelve-impulsive`` and trimesh's cube); four CAD parts are built here with manifold3d's
 booleans, z up. Every shape is centred on its bounding box and scaled to a longest side of 1, so at
 the benchmark's 160 voxels one voxel is 1/160 = 0.00625. The built parts' holes, bosses, pockets and
 ribs are 0.08 or more across (13+ voxels, above the noise's reach of up to ~9 voxels); the U-channel's
@@ -21,7 +21,7 @@ from skelfilter import io
 from skelfilter.demo import sample_path
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-DATA = os.path.join(ROOT, "tests", "data")
+DATA = os.path.join(ROOT, "skelfilter", "data")
 # Facets of the built cylinders: neighbours 3.75 degrees apart, far below the 30 degrees at which
 # skelfilter.metrics.sharp_edges calls an edge sharp, so only the rims count as sharp edges.
 SEGMENTS = 96
@@ -225,7 +225,8 @@ def gear():
     body = manifold3d.Manifold.cylinder(0.16, 0.44, -1.0, SEGMENTS * 2)
     teeth = []
     for a in np.linspace(0.0, 360.0, 24, endpoint=False):
-        tooth = _slab([(0.43, -0.035), (0.5, -2 * VOXEL), (0.5, 2 * VOXEL), (0.43, 0.035)], 0.16).translate((0, 0, 0.08))
+        outline = [(0.43, -0.035), (0.5, -2 * VOXEL), (0.5, 2 * VOXEL), (0.43, 0.035)]
+        tooth = _slab(outline, 0.16).translate((0, 0, 0.08))
         teeth.append(tooth.rotate((0.0, 0.0, float(a))))
     holes = [_cylinder(0.1, 1.0, 0, 0, -0.5)] + [
         _cylinder(0.06, 1.0, 0.28 * np.cos(a), 0.28 * np.sin(a), -0.5) for a in np.radians(np.arange(0, 360, 60))]
@@ -255,7 +256,7 @@ SHAPES = {s.name: s for s in (
 )}
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def load(name):
     """The clean mesh of shape ``name``, centred on its bounding box, longest side 1.
 

@@ -26,9 +26,9 @@ import sys
 import time
 
 import numpy as np
+import shapes
 from scipy import ndimage
 
-import shapes
 from skelfilter import metrics, pipeline
 from skelfilter.voxelize import grid_for_bounds, voxelize_on_grid
 
@@ -106,6 +106,7 @@ def pictures(resolution, path, cases=PICTURE_CASES):
     """Marching-cubes surfaces of the noisy mask, two baselines, the default and the clean mask, one
     row per case, written as a PNG."""
     import matplotlib.pyplot as plt
+
     from skelfilter import render, surface
     from skelfilter.voxelize import Grid
 
@@ -190,7 +191,8 @@ def main(argv=None):
     with open(os.path.join(args.out, "results.json"), "w") as f:
         json.dump({"arguments": sys.argv[1:] if argv is None else argv, "strengths": STRENGTHS, "cases": rows,
                    "clean": cleans}, f, indent=1)
-    text = "".join(table(rows, split) + "\n" for split in ("tuning", "held-out") if any(r["split"] == split for r in rows))
+    splits = [split for split in ("tuning", "held-out") if any(r["split"] == split for r in rows)]
+    text = "".join(table(rows, split) + "\n" for split in splits)
     text += clean_table(cleans)
     if args.pictures:
         pictures(args.resolution, os.path.join(args.out, "pictures.png"))

@@ -1,5 +1,6 @@
-"""Regenerate the filter scripts in this folder: the MeshLab baselines of the comparison (thesis
-§8.2.1), ``skeleton_denoise.mlx`` and the mixed example. Run: ``python meshlab_scripts/make_scripts.py``.
+"""Regenerate the filter scripts: the MeshLab baselines of the comparison (thesis §8.2.1), shipped in
+the package (``skelfilter/comparison/scripts``), and in this folder ``skeleton_denoise.mlx`` and the
+mixed example. Run: ``python meshlab_scripts/make_scripts.py``.
 
 Each baseline script is written by pymeshlab's own ``MeshSet.save_filter_script`` after applying its
 filter to a small mesh, so the XML is exactly what pymeshlab/MeshLab write.
@@ -27,6 +28,7 @@ from skelfilter.filters import SKELETON_SALIENCY_DENOISE
 from skelfilter.params import DenoiseParams
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+BASELINES = os.path.join(os.path.dirname(HERE), "skelfilter", "comparison", "scripts")
 
 SMOOTHING = {
     # thesis §8.2.1: max normal deviation 60 deg, 50 iterations
@@ -68,26 +70,28 @@ def _saved_filters(calls):
         return mlx.parse(mlx.read_bytes(path), path)
 
 
-def skeleton_denoise_text(params=DenoiseParams()):
+def skeleton_denoise_text(params=None):
     """``skeleton_denoise.mlx``: "Skeleton Saliency Denoise" with ``params``."""
-    return mlx.script_text([meshlab.filter_element(SKELETON_SALIENCY_DENOISE, params)])
+    return mlx.script_text([meshlab.filter_element(SKELETON_SALIENCY_DENOISE, params or DenoiseParams())])
 
 
-def mixed_example_text(params=DenoiseParams()):
+def mixed_example_text(params=None):
     """``mixed_example.mlx``: MeshLab clean-up, skeleton denoise with ``params``, light smoothing."""
     return mlx.script_text(_saved_filters(MIXED_CLEANUP)
-                           + [meshlab.filter_element(SKELETON_SALIENCY_DENOISE, params)]
+                           + [meshlab.filter_element(SKELETON_SALIENCY_DENOISE, params or DenoiseParams())]
                            + _saved_filters(MIXED_SMOOTHING))
 
 
-def make_scripts(folder=HERE):
+def make_scripts(baselines=BASELINES, examples=HERE):
+    """Write the baseline scripts into ``baselines`` and the two examples into ``examples``; returns
+    the paths written."""
     written = []
     for name, (filt, params) in SMOOTHING.items():
         ms = pymeshlab.MeshSet()
         ms.add_mesh(_mesh())
         getattr(ms, filt)(**params)
-        ms.save_filter_script(os.path.join(folder, name))
-        written.append(name)
+        written.append(os.path.join(baselines, name))
+        ms.save_filter_script(written[-1])
     for name, (filt, params) in MLS.items():
         ms = pymeshlab.MeshSet()
         ms.add_mesh(_mesh())
@@ -96,16 +100,16 @@ def make_scripts(folder=HERE):
         ms.clear_filter_script()
         ms.set_current_mesh(0)
         getattr(ms, filt)(controlmesh=0, proxymesh=1, **params)
-        ms.save_filter_script(os.path.join(folder, name))
-        written.append(name)
+        written.append(os.path.join(baselines, name))
+        ms.save_filter_script(written[-1])
     for name, text in (("skeleton_denoise.mlx", skeleton_denoise_text()),
                        ("mixed_example.mlx", mixed_example_text())):
-        with open(os.path.join(folder, name), "w", encoding="utf-8") as f:
+        written.append(os.path.join(examples, name))
+        with open(written[-1], "w", encoding="utf-8") as f:
             f.write(text)
-        written.append(name)
     return written
 
 
 if __name__ == "__main__":
-    for name in make_scripts():
-        print(os.path.join(HERE, name))
+    for path in make_scripts():
+        print(path)

@@ -14,7 +14,6 @@ not be used (an ``InputError``) and has not changed since, and tries again every
 import contextlib
 import csv
 import glob
-import importlib
 import json
 import logging
 import os
@@ -25,6 +24,7 @@ from dataclasses import fields
 
 from . import files, io
 from .errors import InputError, SkelfilterError
+from .extras import need
 from .memory import read_field
 from .params import DenoiseParams, VolumeParams, build
 
@@ -105,7 +105,7 @@ def _task(input_path, output_path, params, volume_params, numba_threads):
     import numba
 
     if numba_threads is None:  # a worker of someone else's cluster: the cores its threads leave
-        from distributed import get_worker
+        get_worker = need("distributed", "a batch on Dask").get_worker
 
         numba_threads = usable_cores() // max(1, get_worker().state.nthreads)
     numba.set_num_threads(max(1, min(numba_threads, numba.config.NUMBA_NUM_THREADS)))
@@ -155,8 +155,9 @@ def local_cluster(workers=None):
     (distributed.Client, int)
         The client, and numba's threads per worker.
     """
-    import dask
-    from distributed import Client, LocalCluster
+    dask = need("dask", "a batch on Dask")
+    distributed = need("distributed", "a batch on Dask")
+    Client, LocalCluster = distributed.Client, distributed.LocalCluster
 
     cores = usable_cores()
     workers = workers or cores
@@ -185,7 +186,7 @@ def usable_cores():
 def quiet_distributed():
     """Silence the log lines of Dask's scheduler and nannies in this process (the CLI's choice: its
     summary says what they mean)."""
-    importlib.import_module("distributed")  # its import sets its loggers' levels, which this overrides
+    need("distributed", "skelfilter batch")  # its import sets its loggers' levels, which this overrides
 
     for name in ["distributed", *logging.root.manager.loggerDict]:
         if name.startswith("distributed"):
@@ -270,7 +271,7 @@ def _previous_bad_inputs(out_dir):
 
 
 def _run(todo, client, workers, params, volume_params, report, skipped):
-    from distributed import as_completed
+    as_completed = need("distributed", "a batch on Dask").as_completed
 
     own = client is None
     threads = None

@@ -20,6 +20,7 @@ _MASK = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM}
 try:
     from . import files, filters, io, meshlab, meshlab_filters, pipeline, signals
     from .errors import InputError, SkelfilterError
+    from .extras import need
     from .filters import ADD_SKELETON_NOISE, SKELETON_SALIENCY_DENOISE
     from .params import VolumeParams
     from .progress import Progress
@@ -159,7 +160,7 @@ def build_parser():
     cmp = sub.add_parser("compare", help="run skelfilter and MeshLab's filters on the same noisy meshes "
                          "and write a report (thesis §8.2)")
     cmp.add_argument("config", nargs="?", help="TOML configuration (default: the thesis' protocol, "
-                     "comparisons/default.toml)")
+                     "skelfilter/comparison/default.toml)")
     cmp.add_argument("--out", default="comparison-output", help="output folder (default: comparison-output)")
     cmp.add_argument("--jobs", type=int, help="MeshLab/MeshLib child processes at once (overrides [run] jobs)")
     cmp.add_argument("--resolution", type=int, help="noise grid resolution (overrides [run] resolution)")
@@ -213,7 +214,7 @@ def _batch(args):
     params.update({k: getattr(args, k) for k in ("label", "iso", "spacing") if getattr(args, k) is not None})
     client = None
     if args.scheduler:
-        from distributed import Client
+        Client = need("distributed", "--scheduler").Client
 
         try:
             client = Client(args.scheduler, timeout="20s")
@@ -290,8 +291,12 @@ def _filters(args):
 
 
 def _compare(args):
-    from comparisons.config import load_config
-    from comparisons.run import Reporter, run_compare
+    from .extras import COMPARE_MODULES
+
+    for module in COMPARE_MODULES:
+        need(module, "skelfilter compare", extra="compare")
+    from .comparison.config import load_config
+    from .comparison.run import Reporter, run_compare
 
     if args.config is not None and not os.path.isfile(args.config):
         raise InputError(f"{args.config}: no such configuration file")

@@ -5,8 +5,8 @@ of the kernel filters (Tables 6.1-6.2) and uses it with ``r = 3`` (§8.1.2).
 """
 
 import numpy as np
-from scipy import ndimage
 from numba import njit, prange
+from scipy import ndimage
 
 from .errors import ParameterError
 from .neighbourhood import OFFSETS_26, ball_offsets, bounding_box, flat_offsets, push, unravel

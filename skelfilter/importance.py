@@ -14,8 +14,8 @@ import math
 
 import numba
 import numpy as np
-from scipy import ndimage
 from numba import njit, prange
+from scipy import ndimage
 
 from .errors import ParameterError
 from .neighbourhood import OFFSETS_26, flat_offsets, ravel, unravel

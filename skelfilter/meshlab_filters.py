@@ -35,6 +35,7 @@ import numpy as np
 from . import mlx
 from .child import run_child
 from .errors import InputError, SkelfilterError
+from .extras import need
 
 MLS_FILTERS = ("compute_mls_projection_apss", "compute_mls_projection_rimls")
 
@@ -99,7 +100,7 @@ def python_filter_name(meshlab_name):
 @functools.lru_cache(maxsize=1)
 def _pymeshlab_names():
     """pymeshlab's table of renamed filters (keys.txt: old derived name -> name) and its filter list."""
-    import pymeshlab
+    pymeshlab = need("pymeshlab", "MeshLab's filters")
 
     renames = {}
     keys = os.path.join(os.path.dirname(pymeshlab.__file__), "keys.txt")
@@ -125,6 +126,7 @@ def parameter_lists():
     pymeshlab prints the lists from C++ (``print_filter_parameter_list``), so they are read from a
     child Python's output (half a second, once per process).
     """
+    need("pymeshlab", "MeshLab's filters")
     code = ("import pymeshlab\n"
             "for name in pymeshlab.filter_list():\n"
             "    pymeshlab.print_filter_parameter_list(name)\n")
@@ -134,8 +136,8 @@ def parameter_lists():
     except subprocess.TimeoutExpired:
         raise SkelfilterError("pymeshlab did not list its filters' parameters within 120 s") from None
     if proc.returncode != 0:
-        raise SkelfilterError("pymeshlab failed listing its filters' parameters: "
-                              f"{proc.stderr.strip()[-300:]}")
+        last = (proc.stderr.strip().splitlines() or ["no message"])[-1]
+        raise SkelfilterError(f"pymeshlab failed listing its filters' parameters: {last[-300:]}")
     lists, current = {}, None
     for line in proc.stdout.splitlines():
         header = _HEADER_RE.match(line)
@@ -199,7 +201,7 @@ def check_filter(element, pname, source):
 
 
 def _mesh_set(layers, current):
-    import pymeshlab
+    pymeshlab = need("pymeshlab", "MeshLab's filters")
 
     ms = pymeshlab.MeshSet()
     for vertices, faces in layers:
@@ -231,7 +233,7 @@ def apply_filter(ms, pname, params):
     if pname not in MLS_FILTERS:
         getattr(ms, pname)(**params)
         return ms
-    import pymeshlab
+    pymeshlab = need("pymeshlab", "MeshLab's filters")
 
     layers, current = _layers(ms)
     safe = _mesh_set([layers[current]], 0)

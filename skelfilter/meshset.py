@@ -23,6 +23,7 @@ import numpy as np
 import trimesh
 
 from . import io
+from .extras import need
 from .filters import ADD_SKELETON_NOISE, FILTERS, SKELETON_SALIENCY_DENOISE
 
 
@@ -45,7 +46,7 @@ def to_trimesh(mesh):
 def to_pymeshlab(mesh):
     """A ``trimesh.Trimesh`` as a ``pymeshlab.Mesh``: same vertices and faces, in the same order, and
     its per-vertex or per-face colours."""
-    import pymeshlab
+    pymeshlab = need("pymeshlab", "a PyMeshLab MeshSet")
 
     colours = {}
     kind = getattr(mesh.visual, "kind", None)
@@ -93,7 +94,7 @@ apply_skeleton_noise = _FUNCTIONS[ADD_SKELETON_NOISE.python_name]
 
 def register():
     """Bind the functions as ``pymeshlab.MeshSet`` methods, next to pymeshlab's own filters."""
-    import pymeshlab
+    pymeshlab = need("pymeshlab", "a PyMeshLab MeshSet")
 
     for name, function in _FUNCTIONS.items():
         setattr(pymeshlab.MeshSet, name, function)

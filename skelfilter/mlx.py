@@ -25,6 +25,7 @@ from xml.sax.saxutils import escape
 import numpy as np
 
 from .errors import InputError
+from .extras import need
 
 MAX_SCRIPT_BYTES = 1 << 20
 
@@ -190,7 +191,7 @@ def param_value(attrs, where):
     if kind in ("RichFloat", "RichDynamicFloat"):
         return _float(attrs, "value", where)
     if kind == "RichAbsPerc":
-        import pymeshlab
+        pymeshlab = need("pymeshlab", "MeshLab's filters")
 
         v, lo, hi = (_float(attrs, k, where) for k in ("value", "min", "max"))
         if hi > lo:
@@ -210,7 +211,7 @@ def param_value(attrs, where):
     if kind == "RichMatrix44f":
         return np.array([_float(attrs, f"val{i}", where) for i in range(16)]).reshape(4, 4)
     if kind == "RichColor":
-        import pymeshlab
+        pymeshlab = need("pymeshlab", "MeshLab's filters")
 
         r, g, b, a = (int(_float(attrs, k, where)) for k in "rgba")
         return pymeshlab.Color(r, g, b, a)

@@ -15,7 +15,8 @@ least `LEAST_PEAK` voxels high and at most `HIGHEST_NOISE` of the model's size) 
 the surface they are spread over: the share of surface cells (cubes of `CELL` of the size) holding a
 peak, a plateau of peaks longer than `RIDGE` counted in one cell only (a feature's ridge,
 pruned along its length, is one plateau however many cells it crosses: a chair's slats at 128 voxels
-covered 10 % of the cells counted voxel by voxel). Noise is found where that share reaches `LEAST_COVERAGE`; its height is the `HEIGHT_QUANTILE`
+covered 10 % of the cells counted voxel by voxel). Noise is found where that share reaches
+`LEAST_COVERAGE`; its height is the `HEIGHT_QUANTILE`
 quantile of the peaks' heights.
 
 Chosen on the tuning shapes of ``benchmarks/quality.py`` at resolution 160 after a pruning at

@@ -23,7 +23,6 @@ import numpy as np
 
 from .errors import ParameterError
 
-
 ABSOLUTE = "absolute"  # a length in voxels of the grid
 RELATIVE = "relative"  # a fraction of the longest side of the model's bounding box
 

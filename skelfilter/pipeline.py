@@ -11,8 +11,22 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage
 
-from . import (edt_filters, feature_restore, importance, noise, noise_estimate, normal_filtering, output_choice,
-               reconstruct, saliency, skeleton, surface, vertex_projection, volume_fine_pass, voxelize)
+from . import (
+    edt_filters,
+    feature_restore,
+    importance,
+    noise,
+    noise_estimate,
+    normal_filtering,
+    output_choice,
+    reconstruct,
+    saliency,
+    skeleton,
+    surface,
+    vertex_projection,
+    volume_fine_pass,
+    voxelize,
+)
 from . import spacing as voxel_spacing
 from .distance import distance_and_features
 from .errors import InputError, ParameterError, ResourceError
@@ -488,8 +502,8 @@ def _denoise_unit(mesh, params, progress):
     voxel_moves = output == "input"
     if output == "auto":
         output = "closed" if not _passes_through(params, result) and result.voxels_changed else "input"
-        progress.note(f"output: {'a new closed mesh' if output == 'closed' else 'the input mesh'} "
-                      f"({'noise at the skeleton scale removed' if output == 'closed' else 'no noise at the skeleton scale'})")
+        why = "noise at the skeleton scale removed" if output == "closed" else "no noise at the skeleton scale"
+        progress.note(f"output: {'a new closed mesh' if output == 'closed' else 'the input mesh'} ({why})")
     if output == "closed":
         if params.unchanged_surface == "input":
             with progress.step("input surface"):

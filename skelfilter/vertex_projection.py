@@ -73,8 +73,8 @@ def relax_on_field(points, faces, movable, field, iterations=20, level=0.0):
     """Spread the ``movable`` points (voxel coordinates) over the ``level`` set of ``field``.
 
     Each iteration moves every movable point to the mean of its neighbours within the plane normal
-    to the field's gradient, then projects it back onto the level set; the other points hold still. ``level`` is a number or one
-    per movable point.
+    to the field's gradient, then projects it back onto the level set; the other points hold still.
+    ``level`` is a number or one per movable point.
 
     Returns
     -------
@@ -181,8 +181,9 @@ def move_input_vertices(vertices, faces, mask, occupancy, field, input_field, gr
 
     Candidates are the vertices within ``reach`` voxels of a change that is noise: a removed bump
     or a filled dent that sticks out of the shape (`protruding`; the pruning also erodes real
-    relief, which lies flush with the surface around it), that lie on the input's voxel surface (within ``reach`` of the occupancy's boundary, so parts of
-    an open scan that the voxelization missed are left alone), are not on the mesh's boundary, and
+    relief, which lies flush with the surface around it), that lie on the input's voxel surface
+    (within ``reach`` of the occupancy's boundary, so parts of an open scan that the voxelization
+    missed are left alone), are not on the mesh's boundary, and
     whose projection onto the denoised surface moves them at most ``max_move`` voxels. The voxel
     surfaces lie up to a voxel or so inside the mesh, so a vertex goes to the level of ``field``
     (the denoised shape's) that ``input_field`` (the input voxels', built alike) has at the vertex,

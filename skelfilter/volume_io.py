@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InputError
+from .extras import need
 from .io import atomic_write
 
 # Suffix -> format; ``.nii.gz`` is matched before ``.gz`` would be.
@@ -98,7 +99,7 @@ def load_volume(path, spacing=None):
 
 
 def _read_nifti(path):
-    import nibabel
+    nibabel = need("nibabel", "NIfTI volumes")
 
     image = nibabel.load(path)
     return Volume(np.asanyarray(image.dataobj), np.asarray(image.affine, dtype=float), "nifti", image.header)
@@ -110,7 +111,7 @@ _RAS_SPACES = ("right-anterior-superior", "ras")
 
 
 def _read_nrrd(path):
-    import nrrd
+    nrrd = need("nrrd", "NRRD volumes")
 
     data, header = nrrd.read(path)
     space = str(header.get("space", "")).lower()
@@ -133,7 +134,7 @@ def _read_nrrd(path):
 
 
 def _read_tiff(path):
-    import tifffile
+    tifffile = need("tifffile", "TIFF volumes")
 
     with tifffile.TiffFile(path) as tif:
         pages = tif.asarray()
@@ -200,7 +201,7 @@ def save_volume(path, like, data, protect=()):
 
 
 def _write_nifti(tmp, like, data):
-    import nibabel
+    nibabel = need("nibabel", "NIfTI volumes")
 
     header = like.header.copy() if like.format == "nifti" else None
     image = nibabel.Nifti1Image(data, like.affine, header=header)
@@ -212,7 +213,7 @@ def _write_nifti(tmp, like, data):
 
 
 def _write_nrrd(tmp, like, data):
-    import nrrd
+    nrrd = need("nrrd", "NRRD volumes")
 
     header = dict(like.header) if like.format == "nrrd" else {
         "space": "right-anterior-superior", "space directions": like.affine[:3, :3].T,
@@ -230,7 +231,7 @@ _NRRD_PER_AXIS = ("kinds", "labels", "units", "space directions", "centerings", 
 
 
 def _write_tiff(tmp, like, data):
-    import tifffile
+    tifffile = need("tifffile", "TIFF volumes")
 
     spacing = like.spacing
     meta = dict(like.header) if like.format == "tiff" else {}

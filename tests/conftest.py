@@ -7,11 +7,14 @@ import trimesh
 HERE = os.path.dirname(__file__)
 
 
+PACKAGE_DATA = os.path.join(HERE, "..", "skelfilter", "data")
+
+
 def data_path(name):
-    """Test meshes shipped with the repository (fandisk ships inside the package as the demo sample)."""
-    if name == "fandisk.obj":
-        return os.path.join(HERE, "..", "skelfilter", "data", name)
-    return os.path.join(HERE, "data", name)
+    """Test meshes shipped with the repository: the package's sample meshes (the demo's fandisk, the
+    comparison's models), else the tests' own fixtures."""
+    packaged = os.path.join(PACKAGE_DATA, name)
+    return packaged if os.path.exists(packaged) else os.path.join(HERE, "data", name)
 
 
 def load(name):

@@ -297,7 +297,7 @@ def test_library_warnings_are_one_line_or_silent(capsys):
         try:
             for quiet, expected in ((False, "skelfilter: warning: a library complains\n" * 2), (True, "")):
                 cli._route_library_messages(quiet)
-                warnings.warn("a library\n complains", UserWarning)
+                warnings.warn("a library\n complains", UserWarning, stacklevel=1)
                 logging.getLogger("trimesh").warning("a library complains")
                 assert capsys.readouterr().err == expected
         finally:

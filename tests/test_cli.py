@@ -10,8 +10,8 @@ import pytest
 import trimesh
 
 from skelfilter import cli
-from skelfilter.memory import check_grid_fits
 from skelfilter.errors import ResourceError
+from skelfilter.memory import check_grid_fits
 
 
 def run_cli(*args):

@@ -10,15 +10,15 @@ import pytest
 import trimesh
 from PIL import Image
 
-from comparisons import report
-from comparisons.config import Method, default_config_path, load_config
-from comparisons.methods import run_method
-from comparisons.run import Reporter, run_compare
+from skelfilter.comparison import report
+from skelfilter.comparison.config import Method, default_config_path, load_config
+from skelfilter.comparison.methods import run_method
+from skelfilter.comparison.run import Reporter, run_compare
 from skelfilter.errors import InputError, ParameterError
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-SMOKE = os.path.join(HERE, "..", "comparisons", "smoke.toml")
-SCRIPTS = os.path.join(HERE, "..", "meshlab_scripts")
+SMOKE = os.path.join(HERE, "..", "skelfilter", "comparison", "smoke.toml")
+SCRIPTS = os.path.join(HERE, "..", "skelfilter", "comparison", "scripts")
 
 
 def _write(tmp_path, text):
@@ -29,7 +29,8 @@ def _write(tmp_path, text):
 
 def test_default_config_is_the_thesis_protocol():
     cfg = load_config(default_config_path())
-    stripes = [c for c in cfg.cases if c.synthetic and (c.noise.p, c.noise.r, c.noise.h, c.noise.l) == (0.014, 2.1, 3, 6)]
+    thesis = (0.014, 2.1, 3, 6)
+    stripes = [c for c in cfg.cases if c.synthetic and (c.noise.p, c.noise.r, c.noise.h, c.noise.l) == thesis]
     assert {c.model.rsplit("/", 1)[-1] for c in stripes} >= {"cube", "fandisk", "stanford-bunny.obj", "rocker-arm.obj"}
     assert any(c.synthetic and (c.noise.p, c.noise.h, c.noise.l) == (0.01, 7, 4) for c in cfg.cases)
     assert any(c.synthetic and c.noise.dents for c in cfg.cases)

@@ -1,6 +1,7 @@
 """Do no harm: clean shapes with thin parts pass through the default unchanged, thin parts survive the
 noise's removal, and every flag either takes effect or is refused with a reason."""
 
+import manifold3d
 import numpy as np
 import pytest
 import trimesh
@@ -12,8 +13,6 @@ from skelfilter.noise import add_noise
 from skelfilter.params import DenoiseParams
 from skelfilter.progress import Progress
 from skelfilter.voxelize import voxelize
-
-import manifold3d
 
 
 def _mesh(solid):

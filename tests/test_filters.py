@@ -19,6 +19,7 @@ from skelfilter.params import DenoiseParams, NoiseParams
 
 ROOT = os.path.join(os.path.dirname(__file__), "..")
 SCRIPTS = os.path.join(ROOT, "meshlab_scripts")
+BASELINES = os.path.join(ROOT, "skelfilter", "comparison", "scripts")
 
 
 def make_scripts():
@@ -130,10 +131,12 @@ def test_filters_command_lists_ours_and_meshlabs():
 
 def test_shipped_scripts_are_what_the_generator_writes(tmp_path):
     gen = make_scripts()
-    written = gen.make_scripts(str(tmp_path))
-    assert sorted(written) == sorted(f for f in os.listdir(SCRIPTS) if f.endswith(".mlx"))
+    written = [os.path.basename(p) for p in gen.make_scripts(str(tmp_path), str(tmp_path))]
+    shipped_in = {name: folder for folder in (SCRIPTS, BASELINES) for name in os.listdir(folder)
+                  if name.endswith(".mlx")}
+    assert sorted(written) == sorted(shipped_in)
     for name in written:
-        with open(os.path.join(SCRIPTS, name), "rb") as f:
+        with open(os.path.join(shipped_in[name], name), "rb") as f:
             shipped = f.read()
         new = (tmp_path / name).read_bytes()
         if name in ("skeleton_denoise.mlx", "mixed_example.mlx"):

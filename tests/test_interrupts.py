@@ -20,7 +20,8 @@ STEPS = [(step, "auto") for step in (
     "voxelize", "fine noise", "solid check", "foreground/distance transform", "foreground/skeleton",
     "foreground/importance", "foreground/derivative measure", "foreground/rho+", "foreground/EDT filter",
     "foreground/reconstruction", "foreground/noise estimate", "foreground/features kept", "specks", "needles")]
-STEPS += [("input surface", "closed"), ("marching cubes", "closed"), ("vertices moved", "input"), ("fine pass", "input")]
+STEPS += [("input surface", "closed"), ("marching cubes", "closed"), ("vertices moved", "input"),
+          ("fine pass", "input")]
 
 
 def digest(path):

@@ -1,4 +1,4 @@
-"""MeshLab baseline scripts (meshlab_scripts/*.mlx) and the crash-safe pymeshlab runner."""
+"""MeshLab baseline scripts (skelfilter/comparison/scripts/*.mlx) and the crash-safe pymeshlab runner."""
 
 import os
 
@@ -11,7 +11,7 @@ from skelfilter.errors import InputError, SkelfilterError
 from skelfilter.meshlab import read_filter_script, run_filter_script
 from skelfilter.meshlab_filters import _TEST_HOOK_ENV
 
-SCRIPTS = os.path.join(os.path.dirname(__file__), "..", "meshlab_scripts")
+SCRIPTS = os.path.join(os.path.dirname(__file__), "..", "skelfilter", "comparison", "scripts")
 
 
 def script(name):

@@ -43,7 +43,8 @@ def noisy_fandisk(fandisk_128):
 
 def test_stage_one_is_anti_extensive(noisy_fandisk):
     for edt_filter in ("none", "minify"):
-        stage = saliency_stage(noisy_fandisk.noisy, resolve_params(edt_filter=edt_filter, resolution=256), Progress(False))
+        params = resolve_params(edt_filter=edt_filter, resolution=256)
+        stage = saliency_stage(noisy_fandisk.noisy, params, Progress(False))
         assert not (stage.mask & ~noisy_fandisk.noisy).any()  # Lemma 7
         assert stage.mask.sum() < noisy_fandisk.noisy.sum()
         # the field's inside is the mask: the mesh and the voxels agree

@@ -16,6 +16,7 @@ from skelfilter.filters import SKELETON_SALIENCY_DENOISE
 from skelfilter.params import DenoiseParams, NoiseParams
 
 SCRIPTS = os.path.join(os.path.dirname(__file__), "..", "meshlab_scripts")
+BASELINES = os.path.join(os.path.dirname(__file__), "..", "skelfilter", "comparison", "scripts")
 HEAD = "<!DOCTYPE FilterScript>\n<FilterScript>\n"
 TAIL = "</FilterScript>\n"
 
@@ -140,7 +141,7 @@ def test_mixed_example_is_cleanup_denoise_smoothing(noisy_file, tmp_path):
 
 def test_mls_runs_on_the_current_layer(tmp_path):
     script = tmp_path / "mls.mlx"
-    apss = mlx.parse(mlx.read_bytes(os.path.join(SCRIPTS, "mls_apss.mlx")), "mls_apss.mlx")
+    apss = mlx.parse(mlx.read_bytes(os.path.join(BASELINES, "mls_apss.mlx")), "mls_apss.mlx")
     script.write_text(mlx.script_text([mlx.FilterElement("Duplicate Current layer", 0)] + apss))
     box = trimesh.creation.box((1.0, 1.2, 0.8)).subdivide().subdivide().subdivide().subdivide()
     rng = np.random.default_rng(3)

@@ -17,7 +17,8 @@ def run_cli(*args):
 
 
 def script(filter_name, params=""):
-    return f'<!DOCTYPE FilterScript>\n<FilterScript>\n <filter name="{filter_name}">\n{params} </filter>\n</FilterScript>\n'
+    return (f'<!DOCTYPE FilterScript>\n<FilterScript>\n <filter name="{filter_name}">\n{params} </filter>\n'
+            "</FilterScript>\n")
 
 
 def digest(path):
@@ -43,7 +44,8 @@ def test_the_nxs_build_attack_is_refused_and_the_input_survives(mesh_file, tmp_p
         r = run_cli("run-script", path, mesh_file, tmp_path / "out.ply")
         lines = [line for line in r.stderr.strip().splitlines() if line]
         assert r.returncode == 2 and len(lines) == 1, r.stderr
-        assert lines[0] == f"skelfilter: error: {path}:3: filter {name!r}: reads or writes files; not allowed in scripts"
+        assert lines[0] == (f"skelfilter: error: {path}:3: filter {name!r}: reads or writes files; "
+                            "not allowed in scripts")
     assert digest(mesh_file) == before and not target.exists() and not (tmp_path / "out.ply").exists()
 
 

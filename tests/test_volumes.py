@@ -11,7 +11,8 @@ import tifffile
 from scipy import ndimage
 from scipy.spatial.transform import Rotation
 
-from skelfilter import files, io, pipeline, spacing as voxel_spacing, volume_io
+from skelfilter import files, io, pipeline, volume_io
+from skelfilter import spacing as voxel_spacing
 from skelfilter.errors import InputError
 from skelfilter.params import DenoiseParams, VolumeParams
 
@@ -78,7 +79,8 @@ def nifti(tmp_path_factory):
 def test_nifti_out_keeps_header_and_affine_and_mesh_lies_on_the_mask_in_world(nifti, tmp_path):
     before = nifti.read_bytes()
     for name in ("out.nii.gz", "out.ply"):
-        r = subprocess.run([sys.executable, "-m", "skelfilter.cli", "denoise", str(nifti), str(tmp_path / name), "--keep-features", "off"],
+        r = subprocess.run([sys.executable, "-m", "skelfilter.cli", "denoise", str(nifti), str(tmp_path / name),
+                            "--keep-features", "off"],
                            capture_output=True, text=True, timeout=600)
         assert r.returncode == 0, r.stderr
     assert nifti.read_bytes() == before

@@ -20,7 +20,8 @@ CUBE26 = np.ones((3, 3, 3), dtype=bool)
 
 
 def load(name):
-    path = resources.files("skelfilter") / "data" / name if name == "fandisk.obj" else DATA / name
+    packaged = resources.files("skelfilter") / "data" / name
+    path = packaged if packaged.is_file() else DATA / name
     return trimesh.load(str(path), process=False)
 
 

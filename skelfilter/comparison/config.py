@@ -11,6 +11,7 @@ from dataclasses import dataclass, fields
 from importlib import resources
 
 from skelfilter.errors import InputError, ParameterError
+from skelfilter.extras import need
 from skelfilter.params import DenoiseParams, NoiseParams
 
 BUILTIN_MODELS = ("cube", "fandisk")
@@ -66,7 +67,7 @@ class Config:
 
 def default_config_path():
     """The shipped default configuration (the thesis' protocol)."""
-    return str(resources.files("comparisons") / "default.toml")
+    return str(resources.files("skelfilter.comparison") / "default.toml")
 
 
 def _fail(path, where, message):
@@ -162,7 +163,7 @@ def _method(path, i, table, run):
 
 def _meshlib_settings():
     try:
-        import meshlib.mrmeshpy as mm
+        mm = need("meshlib.mrmeshpy", "the comparison")
     except ImportError:
         return ()
     s = mm.DenoiseViaNormalsSettings()

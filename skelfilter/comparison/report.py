@@ -10,6 +10,7 @@ import html
 import math
 import os
 
+from skelfilter.extras import need
 from skelfilter.meshlab import read_filter_script
 
 from . import render
@@ -296,6 +297,7 @@ def _html(results, sweep_png):
 
 def grid_picture(results, out_dir, kind="view", cell=(210, 170)):
     """One PNG of a picture grid with model and method labels (``grid-<kind>.png``), for READMEs."""
+    need("PIL", "the comparison's picture sheet")
     from PIL import Image, ImageDraw, ImageFont
 
     methods = [m["name"] for m in results["config"]["methods"]]

@@ -16,6 +16,7 @@ import trimesh
 from skelfilter import meshlab, pipeline
 from skelfilter.child import run_child
 from skelfilter.errors import SkelfilterError
+from skelfilter.extras import need
 
 
 @dataclass
@@ -26,7 +27,7 @@ class Outcome:
 
 
 def run_method(method, noisy, clean, config):
-    """Apply ``method`` (a :class:`~comparisons.config.Method`) to ``noisy``; never raises on a
+    """Apply ``method`` (a :class:`~skelfilter.comparison.config.Method`) to ``noisy``; never raises on a
     failure of the method itself."""
     start = time.perf_counter()
     try:
@@ -49,8 +50,8 @@ def run_method(method, noisy, clean, config):
 
 def _meshlib_child(workdir):
     """Child process: mesh.npz + settings.npz -> MeshLib's meshDenoiseViaNormals -> result.npz."""
-    import meshlib.mrmeshnumpy as mn
-    import meshlib.mrmeshpy as mm
+    mn = need("meshlib.mrmeshnumpy", "MeshLib's denoising")
+    mm = need("meshlib.mrmeshpy", "MeshLib's denoising")
 
     with np.load(os.path.join(workdir, "mesh.npz")) as z:
         vertices, faces = z["vertices"], z["faces"]
@@ -79,7 +80,7 @@ def meshlib_denoise(mesh, settings=None, timeout=900):
 
 def _pygel3d_child(workdir):
     """Child process: mesh.npz + settings.npz -> pygel3d's anisotropic_smooth -> result.npz."""
-    from pygel3d import hmesh
+    hmesh = need("pygel3d.hmesh", "PyGEL3D's smoothing")
 
     with np.load(os.path.join(workdir, "mesh.npz")) as z:
         vertices, faces = z["vertices"].astype(np.float64), z["faces"]
@@ -110,7 +111,7 @@ def _in_child(function, mesh, settings, timeout, what):
         np.savez(os.path.join(work, "mesh.npz"), vertices=np.asarray(mesh.vertices, dtype=np.float64),
                  faces=np.asarray(mesh.faces, dtype=np.int32),
                  **{f"s_{k}": np.asarray(v) for k, v in (settings or {}).items()})
-        proc = run_child("comparisons.methods", function, work, timeout, what)
+        proc = run_child("skelfilter.comparison.methods", function, work, timeout, what)
         if proc.returncode != 0:
             tail = proc.stderr.decode("utf-8", "replace").strip().splitlines()[-1:]
             raise SkelfilterError(f"{what} failed (exit status {proc.returncode}): {' '.join(tail)}")

@@ -17,6 +17,7 @@ from dataclasses import dataclass  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from skelfilter.extras import need  # noqa: E402
 from skelfilter.metrics import sharp_edges  # noqa: E402
 
 FEATURE_ANGLE = 45.0  # degrees
@@ -59,7 +60,7 @@ def closeup_camera(clean, camera, angle=30.0):
 
 
 def _polydata(mesh):
-    import pyvista as pv
+    pv = need("pyvista", "the comparison's pictures")
 
     return pv.PolyData.from_regular_faces(np.asarray(mesh.vertices, dtype=float),
                                           np.asarray(mesh.faces, dtype=np.int64))
@@ -68,7 +69,7 @@ def _polydata(mesh):
 def render(mesh, camera, path, size, scalars=None, clim=None, cmap="viridis"):
     """Draw ``mesh`` into a PNG at ``path``; with ``scalars`` (one per vertex) as a colour map over
     ``clim`` without shading variation from the colour, else in a plain colour."""
-    import pyvista as pv
+    pv = need("pyvista", "the comparison's pictures")
 
     plotter = pv.Plotter(off_screen=True, window_size=list(size))
     try:

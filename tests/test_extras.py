@@ -1,0 +1,82 @@
+"""Optional dependencies: each comes with an extra, and a missing one is refused in one line."""
+
+import os
+import subprocess
+import sys
+import tomllib
+
+import pytest
+
+from skelfilter import extras
+from skelfilter.extras import EXTRA_OF, MissingExtra, need
+
+ROOT = os.path.join(os.path.dirname(__file__), "..")
+# The module each optional distribution installs.
+MODULE_OF = {"pymeshlab": "pymeshlab", "nibabel": "nibabel", "pynrrd": "nrrd", "tifffile": "tifffile",
+             "dask[distributed]": "dask", "meshlib": "meshlib", "pygel3d": "pygel3d", "pyvista": "pyvista",
+             "Pillow": "PIL", "manifold3d": "manifold3d"}
+
+
+def _extras():
+    with open(os.path.join(ROOT, "pyproject.toml"), "rb") as f:
+        return tomllib.load(f)["project"]["optional-dependencies"]
+
+
+def test_every_optional_module_comes_with_the_extra_it_names():
+    declared = {}
+    for extra, requirements in _extras().items():
+        for requirement in requirements:
+            name = requirement.split(">")[0].split("=")[0].strip()
+            if name in MODULE_OF:
+                declared.setdefault(MODULE_OF[name], set()).add(extra)
+    declared.setdefault("distributed", set()).update(declared["dask"])  # dask[distributed]
+    for module, extra in EXTRA_OF.items():
+        assert extra in declared.get(module, ()), (module, extra)
+    for module in extras.COMPARE_MODULES:
+        assert "compare" in declared[module.split(".")[0]], module
+
+
+def test_need_imports_an_installed_module():
+    assert need("numpy", "anything").__name__ == "numpy"
+
+
+def test_need_names_the_extra_of_a_missing_module(monkeypatch):
+    monkeypatch.setitem(sys.modules, "pymeshlab", None)  # what an import finds for a missing module
+    with pytest.raises(MissingExtra, match=r"^MeshLab's filters: pymeshlab is not installed; .*"
+                                           r"pip install 'skelfilter\[meshlab\]'$"):
+        need("pymeshlab", "MeshLab's filters")
+    with pytest.raises(MissingExtra, match=r"skelfilter\[compare\]"):
+        need("pymeshlab", "skelfilter compare", extra="compare")
+
+
+def test_a_broken_install_is_not_taken_for_a_missing_extra(monkeypatch):
+    def fail(name, *args, **kwargs):
+        raise ModuleNotFoundError("No module named 'libsomething'", name="libsomething")
+    monkeypatch.setattr(extras.importlib, "import_module", fail)
+    with pytest.raises(ModuleNotFoundError, match="libsomething"):
+        need("pymeshlab", "MeshLab's filters")
+
+
+@pytest.mark.parametrize("argv, blocked, extra", [
+    (["run-script", os.path.join(ROOT, "meshlab_scripts", "mixed_example.mlx"), "IN.ply", "OUT.ply"],
+     ["pymeshlab"], "meshlab"),
+    (["denoise", "IN.npy", "OUT.nii.gz"], ["nibabel"], "volumes"),
+    (["compare", "--out", "OUT"], ["meshlib", "meshlib.mrmeshpy"], "compare"),
+    (["batch", "IN.ply", "--out", "OUT"], ["distributed"], "batch"),
+])
+def test_the_cli_refuses_a_missing_extra_in_one_line(tmp_path, argv, blocked, extra):
+    import numpy as np
+    import trimesh
+
+    trimesh.creation.box().export(tmp_path / "IN.ply")
+    volume = np.zeros((24, 24, 24), dtype=bool)
+    volume[4:20, 4:20, 4:20] = True
+    np.save(tmp_path / "IN.npy", volume)
+    code = (f"import sys\nfor m in {blocked!r}: sys.modules[m] = None\n"
+            f"from skelfilter.cli import main\nsys.argv = ['skelfilter', *{argv!r}]\nsys.exit(main())\n")
+    r = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    lines = [line for line in r.stderr.splitlines() if line.startswith("skelfilter: error:")]
+    assert r.returncode == 2 and len(lines) == 1, r.stderr
+    assert f"pip install 'skelfilter[{extra}]'" in lines[0]
+    assert r.stderr.strip().splitlines()[-1] == lines[0]
+    assert sorted(os.listdir(tmp_path)) == ["IN.npy", "IN.ply"]
