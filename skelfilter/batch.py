@@ -25,13 +25,12 @@ from dataclasses import fields
 from . import files, io
 from .errors import InputError, SkelfilterError
 from .extras import need
-from .memory import read_field
+from .memory import read_field, return_freed_memory
 from .params import DenoiseParams, VolumeParams, build
+from .progress import Progress
 
 SUMMARY_FIELDS = ("input", "output", "status", "error", "seconds", "peak_memory_mib", "voxels_changed",
                   "bad_input")
-# Tests kill the worker that runs the task of the file with this name (SIGKILL, as the OOM killer would).
-_KILL_HOOK_ENV = "_SKELFILTER_BATCH_KILL"
 
 
 def expand_inputs(inputs):
@@ -109,8 +108,7 @@ def _task(input_path, output_path, params, volume_params, numba_threads):
 
         numba_threads = usable_cores() // max(1, get_worker().state.nthreads)
     numba.set_num_threads(max(1, min(numba_threads, numba.config.NUMBA_NUM_THREADS)))
-    if os.environ.get(_KILL_HOOK_ENV) == os.path.basename(input_path):
-        os.kill(os.getpid(), 9)
+    return_freed_memory()  # a setting of the worker process, which this task runs in
     _reset_peak_memory()
     start = time.perf_counter()
     row = {"input": input_path, "output": output_path, "status": "ok", "error": "", "voxels_changed": "",
@@ -118,7 +116,8 @@ def _task(input_path, output_path, params, volume_params, numba_threads):
     try:
         # --label, --iso and --spacing are for the volumes of a mixed batch.
         volume = volume_params if files.input_kind(input_path) == "volume" else None
-        summary = files.denoise_file(input_path, output_path, params, volume)
+        summary = files.denoise_file(input_path, output_path, params, volume,
+                                     progress=Progress(enabled=False, shield=True))
         row["voxels_changed"] = summary["voxels_changed"]
     except InputError as exc:  # the file itself: a rerun leaves it alone while it stays the same
         row.update(status="failed", error=str(exc), bad_input=_stamp(input_path))

@@ -18,7 +18,7 @@ import warnings
 # blocked, they never receive them (see skelfilter.signals).
 _MASK = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
 try:
-    from . import files, filters, io, meshlab, meshlab_filters, pipeline, signals
+    from . import files, filters, io, memory, meshlab, meshlab_filters, pipeline, signals
     from .errors import InputError, SkelfilterError
     from .extras import need
     from .filters import ADD_SKELETON_NOISE, SKELETON_SALIENCY_DENOISE
@@ -191,7 +191,7 @@ def _denoise(args):
         args.output_mesh = "closed"
     params = _params(SKELETON_SALIENCY_DENOISE, args)
     volume = VolumeParams(label=args.label, iso=args.iso, spacing=args.spacing)
-    progress = Progress(enabled=args.progress)
+    progress = Progress(enabled=args.progress, shield=True)
     summary = files.denoise_file(args.input, args.output, params, volume, args.save_skeleton, progress,
                                  points=args.points)
     if args.progress is None and not progress.enabled:
@@ -239,7 +239,7 @@ def _noise(args):
     io.check_output(args.output, [args.input], io.MESH_FORMATS)
     mesh = io.load_mesh(args.input)
     io.check_precision(mesh, args.output)
-    progress = Progress(enabled=args.progress)
+    progress = Progress(enabled=args.progress, shield=True)
     noisy, _, _ = pipeline.noisy_mesh(mesh, params, progress)
     io.save_mesh(noisy, args.output, protect=[args.input])
 
@@ -248,7 +248,7 @@ def _run_script(args):
     steps = meshlab.read_script(args.script)
     io.check_output(args.output, {args.input: "input", args.script: "script"}, io.MESH_FORMATS)
     mesh = io.load_mesh(args.input)
-    progress = Progress(enabled=args.progress)
+    progress = Progress(enabled=args.progress, shield=True)
     layers = meshlab.run_steps(steps, mesh, args.timeout, progress)
     out = io.validate_mesh(layers.current_mesh, f"{args.script}: the current layer at the end")
     io.save_mesh(out, args.output, protect={args.input: "input", args.script: "script"})
@@ -333,6 +333,7 @@ def main(argv=None):
     _route_library_messages(getattr(args, "progress", None) is False)
     previous = signal.signal(signal.SIGTERM, _terminate)
     try:
+        memory.return_freed_memory()
         signals.start_workers_shielded()
         status = {"denoise": _denoise, "noise": _noise, "run-script": _run_script, "export-script": _export_script,
                   "filters": _filters, "compare": _compare, "batch": _batch}[args.command](args)

@@ -52,7 +52,7 @@ def main(argv=None):
     parser.add_argument("--out", default="demo-output", help="output folder")
     parser.add_argument("--resolution", type=int, default=160)
     args = parser.parse_args(argv)
-    summary, paths, picture = run(args.out, args.resolution, progress=Progress(enabled=True))
+    summary, paths, picture = run(args.out, args.resolution, progress=Progress(enabled=True, shield=True))
     print(summary)
     for p in list(paths.values()) + [picture]:
         print("wrote", p)

@@ -122,7 +122,8 @@ def check_grid_fits(shape, available=None, padding=0, padding_from="--padding"):
 
 
 def return_freed_memory():
-    """Have glibc give every freed block over 128 KiB back to the system at once.
+    """Have glibc give every freed block over 128 KiB back to the system at once (a setting of the
+    process: the CLI and the batch workers make it when they start, a library call never does).
 
     After each large free glibc raises its mmap threshold (up to 32 MiB), so
     later arrays below it are carved from heaps that keep their pages when

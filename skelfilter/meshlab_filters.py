@@ -39,9 +39,6 @@ from .extras import need
 
 MLS_FILTERS = ("compute_mls_projection_apss", "compute_mls_projection_rimls")
 
-# hidden hook for the tests: the child aborts ("abort") or hangs ("sleep") before doing any work
-_TEST_HOOK_ENV = "_SKELFILTER_MESHLAB_CHILD_HOOK"
-
 # pymeshlab's type of a parameter (as print_filter_parameter_list names it) -> .mlx types carrying it
 _RICH_TYPES_OF = {
     "bool": ("RichBool",),
@@ -259,19 +256,6 @@ def _load_layers(path):
         return [(z[f"v{i}"], z[f"f{i}"]) for i in range(int(z["count"]))], int(z["current"])
 
 
-def _test_hook(step):
-    """Tests make the child abort or hang at a step: ``abort`` or ``sleep``, at step 0 or ``@N``."""
-    action, _, at = os.environ.get(_TEST_HOOK_ENV, "").partition("@")
-    if step != int(at or 0):
-        return
-    if action == "abort":
-        os.abort()
-    if action == "sleep":
-        import time
-
-        time.sleep(3600)
-
-
 def _child_main(workdir):
     """Entry point of the child process: steps.json and layers.npz in, result.npz (or error.json) out.
 
@@ -283,7 +267,6 @@ def _child_main(workdir):
     for i, step in enumerate(steps):
         with open(os.path.join(workdir, "step"), "w", encoding="utf-8") as f:
             f.write(str(i))
-        _test_hook(i)
         try:
             params = {k: mlx.param_value(a, step["name"]) for k, a in step["params"].items()}
             ms = apply_filter(ms, step["name"], params)

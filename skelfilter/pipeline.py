@@ -32,7 +32,7 @@ from .distance import distance_and_features
 from .errors import InputError, ParameterError, ResourceError
 from .frame import Frame
 from .io import validate_mesh
-from .memory import check_grid_fits, return_freed_memory
+from .memory import check_grid_fits
 from .neighbourhood import bounding_box, unravel
 from .params import DenoiseParams, NoiseParams, VolumeParams, build, voxel_fields_given
 from .progress import Progress
@@ -391,7 +391,6 @@ def _cubic_params(volume, params):
 def _denoise_cubic(volume, params, progress):
     """The stages on a non-empty boolean volume of cubic voxels."""
     params, pad = _cubic_params(volume, params)
-    return_freed_memory()
     padded = np.pad(volume, pad)
     result = denoise_padded(padded, params, progress)
     inner = (slice(pad, -pad),) * 3
@@ -410,7 +409,6 @@ def _voxelize(mesh, resolution, padding, progress, padding_from, required=True):
     the flags that set the padding, for the advice). An empty occupancy is refused if ``required``."""
     grid = voxelize.grid_for_bounds(mesh.bounds, resolution, padding)
     check_grid_fits(grid.shape, padding=padding, padding_from=padding_from)
-    return_freed_memory()
     with progress.step("voxelize"):
         occupancy = voxelize.voxelize_on_grid(mesh, grid)
     if required:

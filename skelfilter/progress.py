@@ -1,28 +1,27 @@
 """Step timing, and a one-line-per-step progress display on a terminal."""
 
-import os
 import sys
 import time
 from contextlib import contextmanager, nullcontext
 
 from .signals import deferred
 
-# hidden hook for the interrupt tests: the step of this name (with its stage prefix) announces itself
-# on stderr and waits, so a test can signal the process inside any step
-_PAUSE_ENV = "_SKELFILTER_PAUSE_STEP"
-
 
 class Progress:
     """Times named steps; prints each on ``stream`` when ``enabled``.
 
-    ``enabled=None`` shows progress only when the stream is a terminal.
+    ``enabled=None`` shows progress only when the stream is a terminal. ``shield``: SIGINT and SIGTERM
+    wait until the step they arrive in ends (`skelfilter.signals.deferred`), which changes the
+    process's signal mask for the step: the CLI and the batch workers ask for it, a library call's
+    default Progress does not.
     """
 
-    def __init__(self, enabled=None, stream=None):
+    def __init__(self, enabled=None, stream=None, shield=False):
         self.stream = stream if stream is not None else sys.stderr
         if enabled is None:
             enabled = hasattr(self.stream, "isatty") and self.stream.isatty()
         self.enabled = enabled
+        self.shield = shield
         self.timings = {}
         self.notes = []
         self._prefix = ""
@@ -46,19 +45,16 @@ class Progress:
 
     @contextmanager
     def step(self, name, shield=True):
-        """Time the block as step ``name``; with ``shield`` an interrupt waits until it ends
-        (`skelfilter.signals.deferred`): leave it off for steps that wait on child processes."""
+        """Time the block as step ``name``; with ``shield`` (and the Progress's) an interrupt waits
+        until it ends (`skelfilter.signals.deferred`): leave it off for steps that wait on child
+        processes."""
         key = self._prefix + name
         if self.enabled:
             self.stream.write(f"  {key} ...")
             self.stream.flush()
         start = time.perf_counter()
         try:
-            with deferred() if shield else nullcontext():
-                if os.environ.get(_PAUSE_ENV) == key:
-                    sys.stderr.write(f"paused in {key}\n")
-                    sys.stderr.flush()
-                    time.sleep(1)
+            with deferred() if shield and self.shield else nullcontext():
                 yield
         except BaseException:
             if self.enabled:

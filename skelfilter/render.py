@@ -1,12 +1,9 @@
-"""Headless pictures of meshes (matplotlib, Agg): same camera and light for every panel."""
+"""Headless pictures of meshes (matplotlib figures drawn off-screen): same camera and light for every
+panel. No pyplot: no backend is chosen for the process and no figure is left open."""
 
-import matplotlib
-
-matplotlib.use("Agg")
-
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
+import numpy as np
+from matplotlib.figure import Figure
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 
 def _shade(normals, light):
@@ -33,7 +30,7 @@ def draw_mesh(ax, mesh, elev=25.0, azim=-60.0, color=(0.72, 0.76, 0.86), bounds=
 
 def save_panels(meshes, titles, path, elev=25.0, azim=-60.0, size=4.0):
     """One row of panels, one per mesh, sharing the first mesh's framing; writes a PNG."""
-    fig = plt.figure(figsize=(size * len(meshes), size), dpi=110)
+    fig = Figure(figsize=(size * len(meshes), size), dpi=110)
     bounds = meshes[0].bounds
     for i, (mesh, title) in enumerate(zip(meshes, titles)):
         ax = fig.add_subplot(1, len(meshes), i + 1, projection="3d")
@@ -41,4 +38,3 @@ def save_panels(meshes, titles, path, elev=25.0, azim=-60.0, size=4.0):
         ax.set_title(title)
     fig.tight_layout()
     fig.savefig(path)
-    plt.close(fig)

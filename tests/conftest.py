@@ -32,3 +32,16 @@ def fandisk_128():
     from skelfilter.voxelize import voxelize
 
     return voxelize(load("fandisk.obj"), 128, 8)[0]
+
+
+@pytest.fixture
+def meshlab_fault(monkeypatch):
+    """``meshlab_fault("abort")`` / ``("sleep@1")``: MeshLab's child processes of this test abort or
+    hang before the given step (`harness.meshlab_child_fault`)."""
+    import harness
+
+    def inject(action):
+        monkeypatch.setenv("PYTHONPATH", harness.with_harness_path(dict(os.environ))["PYTHONPATH"])
+        harness.meshlab_child_fault(action, monkeypatch.setattr)
+
+    return inject

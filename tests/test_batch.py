@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import trimesh
 
+import harness
 from skelfilter import batch, io
 from skelfilter.errors import InputError, ParameterError
 
@@ -36,15 +37,18 @@ def inputs(tmp_path_factory):
     return root
 
 
-def run_batch(*args, env=None):
-    return subprocess.run([sys.executable, "-m", "skelfilter.cli", "batch", *map(str, args)], capture_output=True,
-                          text=True, timeout=600, env={**os.environ, **(env or {})})
+def run_batch(*args, kill=None):
+    """``skelfilter batch`` with ``args``; ``kill``: the input file whose worker kills itself (`harness`)."""
+    command = [sys.executable, harness.__file__, "batch-kill", kill, "--"] if kill else [
+        sys.executable, "-m", "skelfilter.cli"]
+    return subprocess.run([*command, "batch", *map(str, args)], capture_output=True, text=True, timeout=600,
+                          env=harness.with_harness_path(dict(os.environ)))
 
 
 def test_batch_reports_failures_and_a_rerun_skips_what_is_done(inputs, tmp_path):
     out = tmp_path / "out"
     r = run_batch(inputs, "--out", out, "--workers", "2", "--resolution", "32",
-                  env={"_SKELFILTER_BATCH_KILL": "dies.ply"})
+                  kill="dies.ply")
     assert r.returncode == 1, r.stderr
     rows = {os.path.basename(row["input"]): row for row in csv.DictReader(open(out / "summary.csv"))}
     assert rows == {os.path.basename(row["input"]): {k: str(v) for k, v in row.items()}

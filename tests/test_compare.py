@@ -68,10 +68,10 @@ def test_config_unreadable(tmp_path):
         load_config(str(tmp_path / "missing.toml"))
 
 
-def test_a_crashing_filter_becomes_a_failure(monkeypatch):
+def test_a_crashing_filter_becomes_a_failure(meshlab_fault):
     cfg = load_config(SMOKE)
     cube_mesh = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
-    monkeypatch.setenv("_SKELFILTER_MESHLAB_CHILD_HOOK", "abort")
+    meshlab_fault("abort")
     method = Method("Laplacian", "meshlab", os.path.join(SCRIPTS, "laplacian_surface_preserving.mlx"), {})
     outcome = run_method(method, cube_mesh, cube_mesh, cfg)
     assert outcome.mesh is None and "crashed" in outcome.error and "signal 6" in outcome.error

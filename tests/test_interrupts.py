@@ -13,7 +13,10 @@ import time
 import pytest
 import trimesh
 
+import harness
 from skelfilter import pipeline
+
+HARNESS = harness.__file__
 
 # every step of a run, with the output mesh that makes it run
 STEPS = [(step, "auto") for step in (
@@ -36,10 +39,11 @@ def noisy_file(tmp_path_factory):
     return path
 
 
-def start(args, env_extra):
-    env = dict(os.environ, **env_extra)
-    return subprocess.Popen([sys.executable, "-m", "skelfilter.cli", *map(str, args)], env=env,
-                            stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
+def start(args, fault, argument):
+    """The CLI with ``args``, run by `harness` with a fault injected."""
+    return subprocess.Popen([sys.executable, HARNESS, fault, argument, "--", *map(str, args)],
+                            env=harness.with_harness_path(dict(os.environ)), stderr=subprocess.PIPE,
+                            stdout=subprocess.DEVNULL, text=True)
 
 
 def wait_for(proc, text, timeout=120):
@@ -69,7 +73,7 @@ def test_an_interrupt_in_any_step_ends_cleanly(noisy_file, tmp_path, step, outpu
         # at 48 voxels the noise (5 voxels high) is not told from relief: its height is given
         proc = start(["denoise", noisy_file, out, "--resolution", "48", "--noise-height", "5",
                       "--output-mesh", output_mesh],
-                     {"_SKELFILTER_PAUSE_STEP": step})
+                     "pause", step)
         lines = wait_for(proc, f"paused in {step}")
         proc.send_signal(sig)
         returncode, errors = finish(proc, lines)
@@ -106,7 +110,7 @@ def test_a_meshlab_child_dies_with_its_parent(tmp_path, sig, code, word):
     script = tmp_path / "s.mlx"
     script.write_text('<!DOCTYPE FilterScript>\n<FilterScript>\n <filter name="Taubin Smooth"/>\n</FilterScript>\n')
     folders = set(glob.glob(os.path.join(tempfile.gettempdir(), "skelfilter-meshlab-*")))
-    proc = start(["run-script", script, mesh, tmp_path / "out.ply"], {"_SKELFILTER_MESHLAB_CHILD_HOOK": "sleep"})
+    proc = start(["run-script", script, mesh, tmp_path / "out.ply"], "meshlab", "sleep")
     deadline = time.time() + 60
     while not _children(proc.pid) and time.time() < deadline:
         time.sleep(0.1)

@@ -9,7 +9,6 @@ import trimesh
 
 from skelfilter.errors import InputError, SkelfilterError
 from skelfilter.meshlab import read_filter_script, run_filter_script
-from skelfilter.meshlab_filters import _TEST_HOOK_ENV
 
 SCRIPTS = os.path.join(os.path.dirname(__file__), "..", "skelfilter", "comparison", "scripts")
 
@@ -68,8 +67,8 @@ def test_apss_runs_with_the_workaround(noisy_box):
     assert np.isfinite(out.vertices).all() and len(out.faces) == len(noisy_box.faces)
 
 
-def test_child_crash_is_reported(noisy_box, monkeypatch):
-    monkeypatch.setenv(_TEST_HOOK_ENV, "abort")
+def test_child_crash_is_reported(noisy_box, meshlab_fault):
+    meshlab_fault("abort")
     with pytest.raises(SkelfilterError, match="(?i)abort"):
         run_filter_script(noisy_box, script("taubin.mlx"))
 
@@ -84,15 +83,15 @@ TWO_FILTERS = ('<!DOCTYPE FilterScript>\n<FilterScript>\n <filter name="Taubin S
     ("sleep@1", r"two.mlx:4: filter 'Laplacian Smooth' .* did not finish within 2 s"),
     ("abort", r"two.mlx:3: filter 'Taubin Smooth' \(pymeshlab's apply_coord_taubin_smoothing\) crashed"),
 ])
-def test_the_filter_that_crashed_or_hung_is_named(noisy_box, monkeypatch, tmp_path, hook, expected):
+def test_the_filter_that_crashed_or_hung_is_named(noisy_box, meshlab_fault, tmp_path, hook, expected):
     (tmp_path / "two.mlx").write_text(TWO_FILTERS)
-    monkeypatch.setenv(_TEST_HOOK_ENV, hook)
+    meshlab_fault(hook)
     with pytest.raises(SkelfilterError, match=expected):
         run_filter_script(noisy_box, str(tmp_path / "two.mlx"), timeout=2)
 
 
-def test_child_timeout_is_reported(noisy_box, monkeypatch):
-    monkeypatch.setenv(_TEST_HOOK_ENV, "sleep")
+def test_child_timeout_is_reported(noisy_box, meshlab_fault):
+    meshlab_fault("sleep")
     with pytest.raises(SkelfilterError, match="did not finish within 1 s"):
         run_filter_script(noisy_box, script("taubin.mlx"), timeout=1)
 

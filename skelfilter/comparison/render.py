@@ -5,20 +5,18 @@ normals, split at edges sharper than ``FEATURE_ANGLE`` so a sharp edge looks sha
 has one), so differences between cells are differences between meshes.
 """
 
+import contextlib
 import ctypes.util
 import os
+from dataclasses import dataclass
 
-# OSMesa renders on the CPU without an X server or a GPU (the system library libosmesa6); without it
-# VTK tries X, then EGL (Mesa's llvmpipe also renders on the CPU).
-if ctypes.util.find_library("OSMesa"):
-    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkOSOpenGLRenderWindow")
+import numpy as np
 
-from dataclasses import dataclass  # noqa: E402
+from skelfilter.extras import need
+from skelfilter.metrics import sharp_edges
 
-import numpy as np  # noqa: E402
-
-from skelfilter.extras import need  # noqa: E402
-from skelfilter.metrics import sharp_edges  # noqa: E402
+# The environment variable with which VTK makes its render windows with OSMesa.
+_WINDOW_ENV = "VTK_DEFAULT_OPENGL_WINDOW"
 
 FEATURE_ANGLE = 45.0  # degrees
 MESH_COLOUR = (0.74, 0.78, 0.88)
@@ -59,6 +57,22 @@ def closeup_camera(clean, camera, angle=30.0):
     return Camera(tuple(target + distance * toward), tuple(target), camera.up)
 
 
+@contextlib.contextmanager
+def _offscreen_window():
+    """OSMesa renders on the CPU without an X server or a GPU (the system library libosmesa6); without
+    it VTK tries X, then EGL (Mesa's llvmpipe also renders on the CPU). VTK is told so while a
+    picture is drawn; the process's environment is as it was afterwards, and a choice of the user's
+    (the variable set) stands."""
+    if os.environ.get(_WINDOW_ENV) is not None or not ctypes.util.find_library("OSMesa"):
+        yield
+        return
+    os.environ[_WINDOW_ENV] = "vtkOSOpenGLRenderWindow"
+    try:
+        yield
+    finally:
+        os.environ.pop(_WINDOW_ENV, None)
+
+
 def _polydata(mesh):
     pv = need("pyvista", "the comparison's pictures")
 
@@ -71,7 +85,11 @@ def render(mesh, camera, path, size, scalars=None, clim=None, cmap="viridis"):
     ``clim`` without shading variation from the colour, else in a plain colour."""
     pv = need("pyvista", "the comparison's pictures")
 
-    plotter = pv.Plotter(off_screen=True, window_size=list(size))
+    with _offscreen_window():
+        _draw(pv.Plotter(off_screen=True, window_size=list(size)), mesh, camera, path, scalars, clim, cmap)
+
+
+def _draw(plotter, mesh, camera, path, scalars, clim, cmap):
     try:
         plotter.set_background("white")
         options = dict(smooth_shading=True, split_sharp_edges=True, feature_angle=FEATURE_ANGLE)
@@ -90,14 +108,13 @@ def render(mesh, camera, path, size, scalars=None, clim=None, cmap="viridis"):
 
 def colour_bar(path, clim, label, cmap="viridis"):
     """A horizontal legend for the colour maps (matplotlib)."""
-    import matplotlib
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(5.0, 0.75), dpi=110)
-    fig.colorbar(matplotlib.cm.ScalarMappable(matplotlib.colors.Normalize(*clim), cmap), cax=ax,
-                 orientation="horizontal", label=label, extend="max")
+    fig = Figure(figsize=(5.0, 0.75), dpi=110)
+    ax = fig.subplots()
+    fig.colorbar(ScalarMappable(Normalize(*clim), cmap), cax=ax, orientation="horizontal", label=label,
+                 extend="max")
     fig.subplots_adjust(left=0.05, right=0.95, bottom=0.55, top=0.95)
     fig.savefig(path)
-    plt.close(fig)

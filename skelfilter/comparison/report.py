@@ -101,13 +101,11 @@ def _noise_text(case):
 
 
 def _sweep_plot(sweep, out_dir):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     t = [r["t"] for r in sweep["rows"]]
-    fig, ax = plt.subplots(figsize=(6.0, 3.6), dpi=110)
+    fig = Figure(figsize=(6.0, 3.6), dpi=110)
+    ax = fig.subplots()
     ax.plot(t, [r["reconstruction_error"] for r in sweep["rows"]], "o-", label="reconstruction error ε̂ (eq. 6.5)")
     ax.plot(t, [1 - r["bumps_removed"] for r in sweep["rows"]], "s--", label="bump voxels left")
     if any(not math.isnan(r["dents_filled"]) for r in sweep["rows"]):
@@ -121,7 +119,6 @@ def _sweep_plot(sweep, out_dir):
     fig.tight_layout()
     path = os.path.join(out_dir, "sweep.png")
     fig.savefig(path)
-    plt.close(fig)
     return "sweep.png"
 
 
