@@ -35,7 +35,8 @@ from skelfilter.comparison.methods import pygel3d_smooth  # noqa: E402
 from skelfilter.errors import SkelfilterError  # noqa: E402
 from skelfilter.progress import Progress  # noqa: E402
 
-DATA = os.path.join(os.path.dirname(ROOT), "shared", "data")
+SHAPES = os.path.join(ROOT, "skelfilter", "data")  # the clean shapes (package data)
+PAIRS_DATA = os.path.join(ROOT, "benchmarks", "data", "literature")  # see benchmarks/data/README.md
 PAIRS = ("Fandisk0.3", "Fandisk0.7", "Nicolo0.2", "Bunny0.2")
 OWN_SHAPES = {"fandisk": "fandisk.obj", "rocker-arm": "rocker-arm.obj", "bunny": "stanford-bunny.obj",
               "spot": "spot.obj", "twelve": os.path.join("twelve-impulsive", "clean.obj")}
@@ -148,7 +149,7 @@ def main(argv=None):
         for split, names in (("tuning", [s for s in OWN_SHAPES if s not in HELD_OUT]), ("held-out", HELD_OUT)):
             rows = []
             for name in names:
-                clean = io.load_mesh(os.path.join(DATA, OWN_SHAPES[name]))
+                clean = io.load_mesh(os.path.join(SHAPES, OWN_SHAPES[name]))
                 for level in LEVELS:
                     rows.append(score_row(f"{name} {level}", gaussian_noise(clean, level), clean))
                     print(f"{rows[-1]['case']}: {_cell(rows[-1]['skelfilter'])}", file=sys.stderr, flush=True)
@@ -156,7 +157,7 @@ def main(argv=None):
     if args.part in ("literature", "all"):
         rows = []
         for pair in PAIRS:
-            folder = os.path.join(DATA, "literature", pair)
+            folder = os.path.join(PAIRS_DATA, pair)
             rows.append(score_row(pair, io.load_mesh(os.path.join(folder, "noisy.obj")),
                                   io.load_mesh(os.path.join(folder, "clean.obj")), args.pictures))
             print(f"{pair}: {_cell(rows[-1]['skelfilter'])} ({rows[-1]['notes']})", file=sys.stderr, flush=True)

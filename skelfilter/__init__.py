@@ -1,6 +1,7 @@
 """skelfilter: feature-preserving mesh denoising by surface-skeleton saliency pruning.
 
-The pipeline of the thesis in ``shared/thesis`` (§8.1.1), one module per stage::
+The pipeline of the master thesis "Salient edge preserving noise removal using surface skeletons"
+(§8.1.1), one module per stage::
 
     voxelize -> distance -> skeleton -> importance -> saliency -> edt_filters
              -> reconstruct -> surface

@@ -10,6 +10,7 @@ import dataclasses
 import logging
 import math
 import os
+import re
 import signal
 import sys
 import warnings
@@ -22,7 +23,7 @@ try:
     from .errors import InputError, SkelfilterError
     from .extras import need
     from .filters import ADD_SKELETON_NOISE, SKELETON_SALIENCY_DENOISE
-    from .params import VolumeParams
+    from .params import DenoiseParams, NoiseParams, VolumeParams
     from .progress import Progress
 finally:
     signal.pthread_sigmask(signal.SIG_SETMASK, _MASK)
@@ -315,6 +316,17 @@ def _terminate(signum, frame):
     raise Terminated()
 
 
+# Library messages name parameters backticked (`threshold`); the CLI's names for them are its flags.
+_FLAG_NAMES = frozenset(f.name for cls in (DenoiseParams, NoiseParams, VolumeParams)
+                        for f in dataclasses.fields(cls)) | {"save_skeleton"}
+
+
+def _in_cli_terms(message):
+    """A library message with each backticked parameter named by its flag (`save_skeleton` -> --save-skeleton)."""
+    return re.sub(r"`([a-z_]+)`", lambda m: "--" + m.group(1).replace("_", "-") if m.group(1) in _FLAG_NAMES
+                  else m.group(0), message)
+
+
 def _route_library_messages(quiet):
     """Library warnings and log records become one ``skelfilter: warning: …`` line each, or nothing
     under ``--quiet``."""
@@ -338,7 +350,7 @@ def main(argv=None):
         status = {"denoise": _denoise, "noise": _noise, "run-script": _run_script, "export-script": _export_script,
                   "filters": _filters, "compare": _compare, "batch": _batch}[args.command](args)
     except SkelfilterError as exc:
-        print(f"skelfilter: error: {exc}", file=sys.stderr)
+        print(f"skelfilter: error: {_in_cli_terms(str(exc))}", file=sys.stderr)
         return 2
     except MemoryError:
         print("skelfilter: error: out of memory; lower --resolution", file=sys.stderr)

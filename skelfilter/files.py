@@ -73,7 +73,7 @@ def check_paths(input_path, output_path, save_skeleton=None, points=False):
     io.check_output(output_path, [input_path])
     if save_skeleton:
         if kind_in != "mesh":
-            raise InputError("--save-skeleton needs a mesh input")
+            raise InputError("`save_skeleton` needs a mesh input")
         io.check_output(save_skeleton, {input_path: "input", output_path: "output"}, ("ply",))
     return kind_in, kind_out
 
@@ -106,7 +106,7 @@ def denoise_file(input_path, output_path, params, volume_params=None, save_skele
     kind_in, kind_out = check_paths(input_path, output_path, save_skeleton, points)
     volume_params = volume_params or VolumeParams()
     if kind_in != "volume" and volume_params != VolumeParams():
-        raise InputError(f"{input_path}: --label, --iso and --spacing are for volume inputs")
+        raise InputError(f"{input_path}: `label`, `iso` and `spacing` are for volume inputs")
     progress = progress or Progress(enabled=False)
     if kind_in == "volume":
         return _denoise_volume_file(input_path, output_path, kind_out, params, volume_params, progress)
@@ -116,8 +116,8 @@ def denoise_file(input_path, output_path, params, volume_params=None, save_skele
     io.check_precision(mesh, output_path)
     out, result, grid = pipeline.denoise_mesh_detailed(mesh, params, progress)
     if save_skeleton and not result.stages:
-        raise InputError(f"--save-skeleton: no skeleton was computed ({progress.notes[-1]}); "
-                         "--close runs the voxel stage")
+        raise InputError(f"`save_skeleton`: no skeleton was computed ({progress.notes[-1]}); "
+                         "`output_mesh` closed runs the voxel stage")
     io.save_mesh(out, output_path, protect=[input_path])
     if save_skeleton:
         _save_skeleton(save_skeleton, result, grid, {input_path: "input", output_path: "output"})
@@ -131,7 +131,7 @@ def _denoise_volume_file(input_path, output_path, kind_out, params, volume_param
     result = pipeline.denoise_volume(mask, params, progress, spacing=volume.spacing)
     if not result.mask.any():
         raise InputError(f"{input_path}: nothing is left after denoising (the shape is thinner than the "
-                         "noise scale); lower --threshold")
+                         "noise scale); lower `threshold`")
     summary = {"kind": "volume", "voxels_changed": result.voxels_changed}
     if kind_out == "volume":
         data = (volume_io.merge_label(volume.data, mask, result.mask, volume_params.label)

@@ -101,11 +101,12 @@ def _cgroup_left():
     return max(left, 0)
 
 
-def check_grid_fits(shape, available=None, padding=0, padding_from="--padding"):
+def check_grid_fits(shape, available=None, padding=0, padding_from="`padding`"):
     """Raise ResourceError when a grid of ``shape`` would not fit in memory.
 
-    ``padding`` (voxels on each side) and ``padding_from`` (the flags that set it) make the
-    advice point at the padding when it makes most of the grid.
+    ``padding`` (voxels on each side) and ``padding_from`` (the parameters that set it, backticked as
+    in every message: the CLI names them by their flags) make the advice point at the padding when it
+    makes most of the grid.
     """
     n = int(shape[0]) * int(shape[1]) * int(shape[2])
     need = n * BYTES_PER_VOXEL
@@ -113,7 +114,7 @@ def check_grid_fits(shape, available=None, padding=0, padding_from="--padding"):
     if need > have:
         inner = int(np.prod([max(int(s) - 2 * padding, 1) for s in shape]))
         advice = (f"the padding of {padding} voxels on each side makes most of it; lower {padding_from}"
-                  if inner < n / 2 else "lower --resolution")
+                  if inner < n / 2 else "lower `resolution`")
         raise ResourceError(
             f"a {shape[0]}x{shape[1]}x{shape[2]} grid needs about {need / 2**30:.1f} GiB "
             f"but only {have / 2**30:.1f} GiB is available; {advice}"

@@ -16,6 +16,7 @@ import numpy as np
 import trimesh
 from scipy import ndimage
 
+from .closest_points import MeshSurface
 from .errors import InputError, ParameterError
 from .voxelize import voxelize_on_grid
 
@@ -163,27 +164,6 @@ def geodesic_errors(rho, rho_est):
 # --------------------------------------------------------------------------
 
 
-class _Surface:
-    """A mesh prepared for exact closest-point queries (open3d's ray-casting scene)."""
-
-    def __init__(self, mesh):
-        import open3d as o3d  # imported where used: it needs the system's libusb
-
-        self._o3d = o3d
-        self.scene = o3d.t.geometry.RaycastingScene()
-        self.scene.add_triangles(
-            o3d.core.Tensor(np.asarray(mesh.vertices, dtype=np.float32)),
-            o3d.core.Tensor(np.asarray(mesh.faces, dtype=np.uint32)),
-        )
-
-    def closest(self, points):
-        """Distances (world) from ``points`` to the surface, and the index of the closest face."""
-        points = np.asarray(points, dtype=np.float32)
-        found = self.scene.compute_closest_points(self._o3d.core.Tensor(points))
-        dist = np.linalg.norm(found["points"].numpy() - points, axis=1).astype(np.float64)
-        return dist, found["primitive_ids"].numpy().astype(np.int64)
-
-
 def pass_through(result, source, quantile=99.0):
     """How far a result lies from its source mesh: the ``quantile`` percentile of the distances from
     the source's vertices to the result's surface and from the result's vertices to the source's,
@@ -196,8 +176,8 @@ def pass_through(result, source, quantile=99.0):
         ``source_to_result``, ``result_to_source`` (fractions of the diagonal), ``volume_change``.
     """
     diagonal = float(np.linalg.norm(np.ptp(np.asarray(source.vertices), axis=0)))
-    there = _Surface(result).closest(source.vertices)[0]
-    back = _Surface(source).closest(result.vertices)[0]
+    there = MeshSurface(result).closest(source.vertices)[0]
+    back = MeshSurface(source).closest(result.vertices)[0]
     volume = float("nan")
     if source.is_volume and result.is_volume:
         volume = float(abs(result.volume - source.volume) / abs(source.volume))
@@ -217,7 +197,7 @@ def _directed(a_points, b_surface, pitch):
 
 def _distances(result, clean, grid, n_samples, seed, surfaces=None):
     """Directed distances (voxels) result→clean and clean→result at area-uniform samples."""
-    rs, cs = surfaces if surfaces is not None else (_Surface(result), _Surface(clean))
+    rs, cs = surfaces if surfaces is not None else (MeshSurface(result), MeshSurface(clean))
     r_pts, _ = _sample(result, n_samples, seed + 1)
     c_pts, _ = _sample(clean, n_samples, seed + 1)
     return _directed(r_pts, cs, grid.pitch), _directed(c_pts, rs, grid.pitch)
@@ -301,7 +281,7 @@ def normal_error(result, clean, clean_surface=None):
     float
         In [0, 180]; NaN when ``result`` has zero total area.
     """
-    cs = clean_surface if clean_surface is not None else _Surface(clean)
+    cs = clean_surface if clean_surface is not None else MeshSurface(clean)
     _, face = cs.closest(result.triangles_center)
     cos = np.einsum("ij,ij->i", result.face_normals, clean.face_normals[face])
     angle = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
@@ -333,7 +313,7 @@ def literature_errors(result, clean):
     .. [1] Zhang, W., Deng, B., Zhang, J., Bouaziz, S., Liu, L. "Guided Mesh Normal Filtering".
        Computer Graphics Forum 34(7), 2015 (the metrics of its section 6).
     """
-    cs = _Surface(clean)
+    cs = MeshSurface(clean)
     weight = np.zeros(len(result.vertices))
     np.add.at(weight, result.faces.reshape(-1), np.repeat(result.area_faces / 3.0, 3))
     distance = cs.closest(result.vertices)[0]
@@ -348,7 +328,7 @@ def sharp_edges(mesh, angle=30.0):
 
 def vertex_distances(result, clean, grid):
     """Distance (voxels) from every vertex of ``result`` to the clean surface, for colour maps."""
-    return _Surface(clean).closest(result.vertices)[0] / grid.pitch
+    return MeshSurface(clean).closest(result.vertices)[0] / grid.pitch
 
 
 def sharp_edge_error(result, clean, grid, angle=30.0, spacing=0.5, result_surface=None):
@@ -386,7 +366,7 @@ def sharp_edge_error(result, clean, grid, angle=30.0, spacing=0.5, result_surfac
     start = np.cumsum(count) - count
     t = (np.arange(owner.size) - start[owner]) / np.maximum(count[owner] - 1, 1)
     points = a[owner] + t[:, None] * (b - a)[owner]
-    rs = result_surface if result_surface is not None else _Surface(result)
+    rs = result_surface if result_surface is not None else MeshSurface(result)
     d = rs.closest(points)[0] / grid.pitch
     return float(d.mean()), float(d.max()), int(len(edges))
 
@@ -591,7 +571,7 @@ def mesh_metrics(result, clean, grid, noise=None, reach=6.1, sharp_angle=30.0, n
         faces = len(result.faces) if isinstance(result, trimesh.Trimesh) else 0
         return {"error": why, "faces": faces}
 
-    rs, cs = _Surface(result), _Surface(clean)
+    rs, cs = MeshSurface(result), MeshSurface(clean)
     chamfer, h95, hmax = surface_distances(result, clean, grid, n_samples, seed, surfaces=(rs, cs))
     v_result, v_clean = voxelize_on_grid(result, grid), voxelize_on_grid(clean, grid)
     sharp_mean, sharp_max, n_sharp = sharp_edge_error(result, clean, grid, sharp_angle, result_surface=rs)

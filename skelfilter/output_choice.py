@@ -21,6 +21,7 @@ most 0.007) and the literature's pairs (fine noise 0.115-0.235); see README "Out
 import numpy as np
 
 from . import normal_filtering
+from .closest_points import MeshSurface
 from .noise_estimate import surface_voxels
 
 # Voxels of the input's voxel surface that must lie within `NEAR` voxels of the input mesh for the
@@ -48,17 +49,12 @@ def is_closed(faces):
 def solid_share(occupancy, mesh, grid):
     """Share of the voxel surface of ``occupancy`` (at most `SAMPLE` of its voxels) within `NEAR`
     voxels of ``mesh``'s surface."""
-    import open3d as o3d  # imported where used: it needs the system's libusb
-
     rim = np.argwhere(surface_voxels(occupancy))
     if len(rim) == 0:
         return 0.0
     if len(rim) > SAMPLE:
         rim = rim[np.random.default_rng(0).choice(len(rim), SAMPLE, replace=False)]
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor(np.asarray(mesh.vertices, dtype=np.float32)),
-                        o3d.core.Tensor(np.asarray(mesh.faces, dtype=np.uint32)))
-    distance = scene.compute_distance(o3d.core.Tensor(grid.to_world(rim).astype(np.float32))).numpy()
+    distance = MeshSurface(mesh).distance(grid.to_world(rim))
     return float(np.mean(distance / grid.pitch <= NEAR))
 
 

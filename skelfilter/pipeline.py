@@ -174,7 +174,7 @@ def denoise_padded(volume, params, progress):
     if not current.any():
         raise InputError(
             f"nothing is left after pruning at threshold t = {params.threshold_voxels:g} voxels: "
-            "the whole shape is thinner than the noise scale; lower --threshold or raise --resolution"
+            "the whole shape is thinner than the noise scale; lower `threshold` or raise `resolution`"
         )
     if params.stages in ("both", "background"):
         field = None
@@ -400,8 +400,8 @@ def _denoise_cubic(volume, params, progress):
 
 
 def _padding_from(params):
-    """The flags that set the padding, for the memory advice."""
-    return "--padding" if params.padding is not None else "--threshold (half of it pads the grid)"
+    """The parameters that set the padding, for the memory advice."""
+    return "`padding`" if params.padding is not None else "`threshold` (half of it pads the grid)"
 
 
 def _voxelize(mesh, resolution, padding, progress, padding_from, required=True):
@@ -484,7 +484,7 @@ def _denoise_unit(mesh, params, progress):
                 or output_choice.solid_share(occupancy, mesh, grid) >= output_choice.SOLID_SHARE)
             if not solid:
                 skipped = ("the input is an open surface: its own mesh comes back, smoothed by the fine pass "
-                           "(the voxel stage needs a solid; --close makes one)")
+                           "(the voxel stage needs a solid; the output mesh 'closed' makes one)")
     if skipped is not None:
         if asked:
             raise ParameterError(f"{', '.join(asked)} would have no effect: {skipped}; output_mesh closed runs "
@@ -590,7 +590,7 @@ def noisy_mesh(mesh, params=None, progress=None, **overrides):
     progress = progress or Progress(enabled=False)
     frame = Frame.of(validate_mesh(mesh))
     clean, grid = _voxelize(frame.to_unit(mesh), params.resolution, params.padding_voxels, progress,
-                            "--h and --r (the padding is h + r + 10)")
+                            "`h` and `r` (the padding is h + r + 10)")
     with progress.step("noise"):
         result = noise.add_noise(clean, p=params.p, r=params.r, h=params.h, l=params.l,
                                  seed=params.seed, dents=params.dents)

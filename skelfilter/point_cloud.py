@@ -22,6 +22,7 @@ import tempfile
 import numpy as np
 import trimesh
 
+from .closest_points import MeshSurface
 from .errors import InputError
 
 # File suffixes read as point clouds; a PLY is one when it has no faces.
@@ -153,11 +154,8 @@ def move_points(cloud, mesh):
     """A copy of ``cloud`` with every point moved to the closest point of ``mesh``, attributes kept."""
     import open3d as o3d
 
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor(np.asarray(mesh.vertices, dtype=np.float32)),
-                        o3d.core.Tensor(np.asarray(mesh.faces, dtype=np.uint32)))
     points = cloud.point.positions.numpy()
-    closest = scene.compute_closest_points(o3d.core.Tensor(points.astype(np.float32)))["points"].numpy()
+    closest = MeshSurface(mesh).closest_points(points)
     out = cloud.clone()
     out.point.positions = o3d.core.Tensor(closest.astype(points.dtype))
     return out

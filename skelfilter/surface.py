@@ -6,6 +6,7 @@ from scipy import ndimage
 from skimage import measure
 
 from . import reconstruct
+from .closest_points import MeshSurface
 from .neighbourhood import bounding_box, unravel
 from .voxelize import Grid
 
@@ -95,16 +96,11 @@ def keep_input_surface(field, mask, occupancy, mesh, grid, reach=2):
     reach : int, optional
         Voxels kept clear of every change.
     """
-    import open3d as o3d  # imported where used: it needs the system's libusb
-
     band = _unchanged_band(field, mask, occupancy, reach)
     if band.size == 0:
         return
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor(np.asarray(mesh.vertices, dtype=np.float32)),
-                        o3d.core.Tensor(np.asarray(mesh.faces, dtype=np.uint32)))
     points = grid.to_world(unravel(band, field.shape)).astype(np.float32)
-    _put_distances(field, mask, band, scene.compute_distance(o3d.core.Tensor(points)).numpy() / grid.pitch)
+    _put_distances(field, mask, band, MeshSurface(mesh).distance(points) / grid.pitch)
 
 
 def keep_input_field(field, mask, occupancy, input_field, reach=2):

@@ -173,7 +173,7 @@ def select_mask(data, label=None, iso=None):
         values = np.unique(data)
         if values.size > 2:
             raise InputError(f"the volume holds {values.size} values, not a mask: choose the shape with "
-                             "--label N (a label map) or --iso LEVEL (a grey-level image)")
+                             "`label` N (a label map) or `iso` LEVEL (a grey-level image)")
         mask, empty = data != 0, "no voxel is set"
     if not mask.any():
         raise InputError(f"the volume is empty: {empty}")

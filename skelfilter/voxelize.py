@@ -192,7 +192,7 @@ def why_empty(mesh, grid):
         return (f"its {len(parts)} parts are each smaller than a voxel ({voxel}): they lie far apart for their size; "
                 "denoise them one at a time")
     if len(extents) and (extents.min(axis=1) < 2 * grid.pitch).all():
-        return f"it is thinner than two voxels (a voxel is {voxel}): flat, or raise --resolution"
+        return f"it is thinner than two voxels (a voxel is {voxel}): flat, or raise `resolution`"
     return "it encloses nothing: is it an open surface?"
 
 

@@ -11,11 +11,12 @@ import trimesh
 from PIL import Image
 
 from skelfilter import io, metrics, normal_filtering, output_choice, pipeline, vertex_projection, voxelize
+from skelfilter.closest_points import MeshSurface
 from skelfilter.params import DenoiseParams
 from skelfilter.progress import Progress
 
 DATA = os.path.join(os.path.dirname(__file__), "data")
-FANDISK = os.path.join(DATA, "literature-fandisk0.3")
+FANDISK = os.path.join(os.path.dirname(__file__), "..", "benchmarks", "data", "literature", "Fandisk0.3")
 SCAN = os.path.join(DATA, "range-scan-bunny.ply")
 
 
@@ -111,10 +112,10 @@ def test_open_scan_stays_open_and_on_its_surface():
     assert np.array_equal(out.faces, scan.faces)
     assert np.array_equal(vertex_projection.boundary_vertices(out.faces, len(out.vertices)),
                           vertex_projection.boundary_vertices(scan.faces, len(scan.vertices)))
-    to_output = metrics._Surface(out).closest(scan.vertices)[0] / grid.pitch
+    to_output = MeshSurface(out).closest(scan.vertices)[0] / grid.pitch
     assert np.mean(to_output <= 2) >= 0.95
     samples = trimesh.sample.sample_surface(out, 20000, seed=0)[0]
-    assert (metrics._Surface(scan).closest(samples)[0] / grid.pitch).max() <= 2
+    assert (MeshSurface(scan).closest(samples)[0] / grid.pitch).max() <= 2
 
 
 def test_solid_share_tells_open_from_closed():

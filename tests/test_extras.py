@@ -80,3 +80,15 @@ def test_the_cli_refuses_a_missing_extra_in_one_line(tmp_path, argv, blocked, ex
     assert f"pip install 'skelfilter[{extra}]'" in lines[0]
     assert r.stderr.strip().splitlines()[-1] == lines[0]
     assert sorted(os.listdir(tmp_path)) == ["IN.npy", "IN.ply"]
+
+
+def test_library_messages_name_parameters_and_the_cli_its_flags():
+    from skelfilter.cli import _in_cli_terms
+    from skelfilter.errors import ResourceError
+    from skelfilter.memory import check_grid_fits
+
+    with pytest.raises(ResourceError, match=r"lower `resolution`$") as refused:
+        check_grid_fits((4096, 4096, 4096), available=2**30)
+    assert _in_cli_terms(str(refused.value)).endswith("lower --resolution")
+    assert _in_cli_terms("`save_skeleton` needs a mesh input; `not_a_parameter` stays") == (
+        "--save-skeleton needs a mesh input; `not_a_parameter` stays")
