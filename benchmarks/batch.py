@@ -15,7 +15,7 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from skelfilter import batch, demo, files, io, pipeline  # noqa: E402
+from skelfilter import batch, demo, files, io, mesh_pipeline  # noqa: E402
 from skelfilter.params import DenoiseParams, NoiseParams  # noqa: E402
 
 
@@ -30,7 +30,7 @@ def main():
         inputs = os.path.join(work, "in")
         os.makedirs(inputs)
         for seed in range(args.files):
-            noisy = pipeline.noisy_mesh(clean, NoiseParams(resolution=args.resolution, seed=seed))[0]
+            noisy = mesh_pipeline.noisy_mesh(clean, NoiseParams(resolution=args.resolution, seed=seed))[0]
             io.save_mesh(noisy, os.path.join(inputs, f"fandisk-{seed:03d}.ply"))
         params = DenoiseParams(resolution=args.resolution)
         start = time.perf_counter()

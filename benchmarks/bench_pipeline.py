@@ -51,10 +51,10 @@ def _reset_peak():
 
 def make_noisy(size, path, seed=1):
     """Fandisk voxelized at ``size`` with the thesis' stripes, as a mesh file."""
-    from skelfilter import io, pipeline
+    from skelfilter import io, mesh_pipeline
     from skelfilter.params import NoiseParams
 
-    noisy, _, _ = pipeline.noisy_mesh(io.load_mesh(SAMPLE), NoiseParams(resolution=size, seed=seed))
+    noisy, _, _ = mesh_pipeline.noisy_mesh(io.load_mesh(SAMPLE), NoiseParams(resolution=size, seed=seed))
     io.save_mesh(noisy, path)
 
 
@@ -62,7 +62,7 @@ def run_one(size, src):
     """Denoise the mesh file ``src`` at ``size``, file to file; then time the reference EDT."""
     from scipy import ndimage
 
-    from skelfilter import io, pipeline, voxelize
+    from skelfilter import io, mesh_pipeline, voxelize
     from skelfilter.params import DenoiseParams
     from skelfilter.progress import Progress
 
@@ -90,7 +90,7 @@ def run_one(size, src):
         start = time.perf_counter()
         with probe.step("read"):
             mesh = io.load_mesh(src)
-        out, result, grid = pipeline.denoise_mesh_detailed(mesh, params, probe)
+        out, result, grid = mesh_pipeline.denoise_mesh_detailed(mesh, params, probe)
         with probe.step("write"):
             io.save_mesh(out, dst)
         total = time.perf_counter() - start

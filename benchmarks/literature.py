@@ -30,7 +30,7 @@ import trimesh
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
-from skelfilter import io, meshlab, metrics, pipeline  # noqa: E402
+from skelfilter import io, mesh_pipeline, meshlab, metrics  # noqa: E402
 from skelfilter.comparison.methods import pygel3d_smooth  # noqa: E402
 from skelfilter.errors import SkelfilterError  # noqa: E402
 from skelfilter.progress import Progress  # noqa: E402
@@ -72,7 +72,7 @@ def results(noisy, clean):
         print(f"  pygel3d failed: {exc}", file=sys.stderr)
     progress = Progress(enabled=False)
     start = time.perf_counter()
-    out = pipeline.denoise_mesh(noisy, progress=progress)
+    out = mesh_pipeline.denoise_mesh(noisy, progress=progress)
     return taubin, pygel, out, time.perf_counter() - start, "; ".join(progress.notes)
 
 

@@ -37,7 +37,7 @@ import shapes
 import trimesh
 from quality_tables import SPLITS
 
-from skelfilter import io, metrics, pipeline
+from skelfilter import io, mesh_pipeline, metrics
 from skelfilter.comparison import render, report
 from skelfilter.comparison.config import Method
 from skelfilter.comparison.methods import run_method
@@ -255,7 +255,7 @@ def prepare(case, setup):
 def _make_noisy(case, resolution, stem):
     """Write a case's noisy cache files (see `prepare`), the json without scores."""
     start = time.perf_counter()
-    marching, noise, grid = pipeline.noisy_mesh(shapes.load(case.shape), case.noise(resolution))
+    marching, noise, grid = mesh_pipeline.noisy_mesh(shapes.load(case.shape), case.noise(resolution))
     decimated = decimate(marching, MAX_FACES)
     os.makedirs(os.path.dirname(stem), exist_ok=True)
     _save_npz(stem + ".npz", clean=np.packbits(noise.clean), bumps=np.packbits(noise.bumps),
@@ -298,7 +298,7 @@ def run_variant(case, label, params, setup, save_path):
     prep = load_case(case, setup)
     start = time.perf_counter()
     try:
-        mesh = pipeline.denoise_mesh(prep.marching, params)
+        mesh = mesh_pipeline.denoise_mesh(prep.marching, params)
     except Exception as exc:  # the denoiser under development: record the failure, measure the rest
         return {"seconds": time.perf_counter() - start, "error": f"{type(exc).__name__}: {exc}"}
     seconds = time.perf_counter() - start
@@ -357,7 +357,7 @@ def clean_pass(shape, params, resolution):
     clean = shapes.load(shape)
     start = time.perf_counter()
     try:
-        out = pipeline.denoise_mesh(clean, params)
+        out = mesh_pipeline.denoise_mesh(clean, params)
     except Exception as exc:  # as in run_variant
         return {"seconds": time.perf_counter() - start, "error": f"{type(exc).__name__}: {exc}"}
     seconds = time.perf_counter() - start

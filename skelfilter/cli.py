@@ -19,7 +19,7 @@ import warnings
 # blocked, they never receive them (see skelfilter.signals).
 _MASK = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
 try:
-    from . import files, filters, io, memory, meshlab, meshlab_filters, pipeline, signals
+    from . import files, filters, io, memory, mesh_pipeline, meshlab, meshlab_filters, signals
     from .errors import InputError, SkelfilterError
     from .extras import need
     from .filters import ADD_SKELETON_NOISE, SKELETON_SALIENCY_DENOISE
@@ -241,7 +241,7 @@ def _noise(args):
     mesh = io.load_mesh(args.input)
     io.check_precision(mesh, args.output)
     progress = Progress(enabled=args.progress, shield=True)
-    noisy, _, _ = pipeline.noisy_mesh(mesh, params, progress)
+    noisy, _, _ = mesh_pipeline.noisy_mesh(mesh, params, progress)
     io.save_mesh(noisy, args.output, protect=[args.input])
 
 

@@ -9,7 +9,7 @@ import sys
 import time
 from importlib import resources
 
-from . import io, pipeline, render, voxelize
+from . import io, mesh_pipeline, render, voxelize
 from .params import DenoiseParams, NoiseParams
 from .progress import Progress
 
@@ -26,10 +26,10 @@ def run(out_dir, resolution=160, seed=1, progress=None):
     clean = io.load_mesh(sample_path())
     noise_params = NoiseParams(resolution=resolution, seed=seed)
     with progress.stage("noise"):
-        noisy, noise_result, grid = pipeline.noisy_mesh(clean, noise_params, progress)
+        noisy, noise_result, grid = mesh_pipeline.noisy_mesh(clean, noise_params, progress)
     start = time.perf_counter()
     with progress.stage("denoise"):
-        denoised = pipeline.denoise_mesh(noisy, DenoiseParams(resolution=resolution), progress)
+        denoised = mesh_pipeline.denoise_mesh(noisy, DenoiseParams(resolution=resolution), progress)
     elapsed = time.perf_counter() - start
     # Score the output mesh voxel by voxel on the grid the noise was made on.
     result = voxelize.voxelize_on_grid(denoised, grid)

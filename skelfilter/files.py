@@ -13,7 +13,7 @@ import os
 
 import numpy as np
 
-from . import io, pipeline, point_cloud, surface, volume_io
+from . import io, mesh_pipeline, pipeline, point_cloud, surface, volume_io
 from .errors import InputError
 from .params import VolumeParams
 from .progress import Progress
@@ -114,7 +114,7 @@ def denoise_file(input_path, output_path, params, volume_params=None, save_skele
         return _denoise_point_file(input_path, output_path, kind_out, params, progress)
     mesh = io.load_mesh(input_path)
     io.check_precision(mesh, output_path)
-    out, result, grid = pipeline.denoise_mesh_detailed(mesh, params, progress)
+    out, result, grid = mesh_pipeline.denoise_mesh_detailed(mesh, params, progress)
     if save_skeleton and not result.stages:
         raise InputError(f"`save_skeleton`: no skeleton was computed ({progress.notes[-1]}); "
                          "`output_mesh` closed runs the voxel stage")
@@ -150,7 +150,7 @@ def _denoise_point_file(input_path, output_path, kind_out, params, progress):
     cloud = point_cloud.load_points(input_path)
     with progress.step("Poisson surface"):
         solid = point_cloud.points_to_mesh(cloud, input_path)
-    out, result, _ = pipeline.denoise_mesh_detailed(solid, params.with_(output_mesh="closed"), progress)
+    out, result, _ = mesh_pipeline.denoise_mesh_detailed(solid, params.with_(output_mesh="closed"), progress)
     summary = {"kind": "points", "voxels_changed": result.voxels_changed}
     if kind_out == "points":
         with progress.step("points moved"):

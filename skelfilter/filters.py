@@ -22,7 +22,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from . import pipeline
+from . import mesh_pipeline
 from .errors import ParameterError
 from .params import ABSOLUTE, RELATIVE, DenoiseParams, NoiseParams
 
@@ -152,11 +152,11 @@ class FilterDescription:
 
 
 def _denoise(mesh, params, progress=None):
-    return pipeline.denoise_mesh(mesh, params, progress)
+    return mesh_pipeline.denoise_mesh(mesh, params, progress)
 
 
 def _noise(mesh, params, progress=None):
-    return pipeline.noisy_mesh(mesh, params, progress)[0]
+    return mesh_pipeline.noisy_mesh(mesh, params, progress)[0]
 
 
 SKELETON_SALIENCY_DENOISE = FilterDescription(

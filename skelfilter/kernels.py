@@ -12,7 +12,7 @@ import time
 
 import trimesh
 
-from . import demo, io, pipeline, signals
+from . import demo, io, mesh_pipeline, signals
 from .params import DenoiseParams, NoiseParams
 
 RESOLUTION = 32
@@ -24,16 +24,16 @@ def compile_kernels():
     start = time.perf_counter()
     signals.start_workers_shielded()
     clean = io.load_mesh(demo.sample_path())
-    noisy = pipeline.noisy_mesh(clean, NoiseParams(resolution=RESOLUTION, seed=1))[0]
+    noisy = mesh_pipeline.noisy_mesh(clean, NoiseParams(resolution=RESOLUTION, seed=1))[0]
     # A given noise height: at this size no noise is found, and the features are given back by it.
     for params in (DenoiseParams(resolution=RESOLUTION, output_mesh="closed", noise_height=2.0),
                    DenoiseParams(resolution=RESOLUTION, output_mesh="input"),
                    DenoiseParams(resolution=RESOLUTION, preset="thesis")):
-        pipeline.denoise_mesh(noisy, params)
+        mesh_pipeline.denoise_mesh(noisy, params)
     # An open mesh: the voxelization's hole handling.
     half = trimesh.Trimesh(clean.vertices, clean.faces[clean.triangles_center[:, 2] < clean.centroid[2]],
                            process=False)
-    pipeline.denoise_mesh(half, DenoiseParams(resolution=RESOLUTION, output_mesh="closed"))
+    mesh_pipeline.denoise_mesh(half, DenoiseParams(resolution=RESOLUTION, output_mesh="closed"))
     return time.perf_counter() - start
 
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from skelfilter import DenoiseParams, NoiseParams, io, pipeline
+from skelfilter import DenoiseParams, NoiseParams, io, mesh_pipeline, pipeline
 from skelfilter.errors import InputError, ParameterError, ResourceError
 from skelfilter.meshlab import run_filter_script
 
@@ -227,21 +227,21 @@ def _meshset_call(name, **params):
 
 
 API_CASES = [
-    (lambda m: pipeline.denoise_mesh(m, k=float("nan")), ParameterError, r"k must be a number in \[0, 100\]"),
-    (lambda m: pipeline.denoise_mesh(m, resolution="64"), ParameterError, "resolution must be an integer"),
-    (lambda m: pipeline.denoise_mesh(m, resolution=2**63), ParameterError, r"resolution must be an integer in"),
-    (lambda m: pipeline.denoise_mesh(m, threshold=float("inf")), ParameterError, "threshold must be a number"),
-    (lambda m: pipeline.denoise_mesh(m, nosuch=1), ParameterError, "unknown parameter nosuch"),
-    (lambda m: pipeline.denoise_mesh(m, output_mesh="cube"), ParameterError, "output_mesh must be one of"),
-    (lambda m: pipeline.denoise_mesh(m, preset="fast"), ParameterError, "preset must be one of"),
-    (lambda m: pipeline.denoise_mesh(m, resolution=4096), ResourceError, "GiB is available"),
-    (lambda m: pipeline.denoise_mesh(str(m)), InputError, "expected a trimesh.Trimesh, got str"),
-    (lambda m: pipeline.denoise_mesh(trimesh.Trimesh()), InputError, "the mesh is empty"),
-    (lambda m: pipeline.denoise_mesh(trimesh.Trimesh(m.vertices * np.nan, m.faces, process=False)), InputError,
+    (lambda m: mesh_pipeline.denoise_mesh(m, k=float("nan")), ParameterError, r"k must be a number in \[0, 100\]"),
+    (lambda m: mesh_pipeline.denoise_mesh(m, resolution="64"), ParameterError, "resolution must be an integer"),
+    (lambda m: mesh_pipeline.denoise_mesh(m, resolution=2**63), ParameterError, r"resolution must be an integer in"),
+    (lambda m: mesh_pipeline.denoise_mesh(m, threshold=float("inf")), ParameterError, "threshold must be a number"),
+    (lambda m: mesh_pipeline.denoise_mesh(m, nosuch=1), ParameterError, "unknown parameter nosuch"),
+    (lambda m: mesh_pipeline.denoise_mesh(m, output_mesh="cube"), ParameterError, "output_mesh must be one of"),
+    (lambda m: mesh_pipeline.denoise_mesh(m, preset="fast"), ParameterError, "preset must be one of"),
+    (lambda m: mesh_pipeline.denoise_mesh(m, resolution=4096), ResourceError, "GiB is available"),
+    (lambda m: mesh_pipeline.denoise_mesh(str(m)), InputError, "expected a trimesh.Trimesh, got str"),
+    (lambda m: mesh_pipeline.denoise_mesh(trimesh.Trimesh()), InputError, "the mesh is empty"),
+    (lambda m: mesh_pipeline.denoise_mesh(trimesh.Trimesh(m.vertices * np.nan, m.faces, process=False)), InputError,
      "NaN"),
-    (lambda m: pipeline.noisy_mesh(m, l=10**9), ParameterError, r"l must be an integer in \[1, 100000\]"),
-    (lambda m: pipeline.noisy_mesh(m, q=1), ParameterError, "unknown parameter q"),
-    (lambda m: pipeline.noisy_mesh(m, seed=-1), ParameterError, "seed must be an integer in"),
+    (lambda m: mesh_pipeline.noisy_mesh(m, l=10**9), ParameterError, r"l must be an integer in \[1, 100000\]"),
+    (lambda m: mesh_pipeline.noisy_mesh(m, q=1), ParameterError, "unknown parameter q"),
+    (lambda m: mesh_pipeline.noisy_mesh(m, seed=-1), ParameterError, "seed must be an integer in"),
     (lambda m: pipeline.denoise_volume(np.zeros((4, 4))), InputError, "a volume must be 3-D"),
     (lambda m: pipeline.denoise_volume(np.zeros((8, 8, 8))), InputError, "the volume is empty"),
     (lambda m: DenoiseParams(k=-1), ParameterError, r"k must be a number in \[0, 100\]"),

@@ -7,7 +7,7 @@ import pytest
 import trimesh
 from scipy import ndimage
 
-from skelfilter import metrics, pipeline
+from skelfilter import mesh_pipeline, metrics, pipeline
 from skelfilter.errors import ParameterError
 from skelfilter.noise import add_noise
 from skelfilter.params import DenoiseParams
@@ -45,7 +45,7 @@ def legged():
 def test_a_clean_thin_shape_comes_back_unchanged(request, name):
     mesh = request.getfixturevalue(name)
     progress = Progress(enabled=False)
-    out, result, _ = pipeline.denoise_mesh_detailed(mesh, DenoiseParams(resolution=160), progress)
+    out, result, _ = mesh_pipeline.denoise_mesh_detailed(mesh, DenoiseParams(resolution=160), progress)
     assert result.voxels_changed == 0 and not result.noise["foreground"].found
     assert np.array_equal(out.faces, mesh.faces) and np.allclose(out.vertices, mesh.vertices, atol=0)
     assert any("none found" in n for n in progress.notes)
@@ -86,8 +86,8 @@ def test_voxel_flags_on_an_open_surface_are_refused():
     sheet.update_faces(sheet.face_normals[:, 2] < 0.5)  # no top: an open surface
     sheet.remove_unreferenced_vertices()
     with pytest.raises(ParameterError, match="threshold would have no effect"):
-        pipeline.denoise_mesh(sheet, threshold=12)
-    pipeline.denoise_mesh(sheet, resolution=64)  # the resolution decides what a solid is: no refusal
+        mesh_pipeline.denoise_mesh(sheet, threshold=12)
+    mesh_pipeline.denoise_mesh(sheet, resolution=64)  # the resolution decides what a solid is: no refusal
 
 
 def test_a_given_threshold_runs_the_voxel_stage_on_a_fine_noise_mesh():
@@ -95,10 +95,10 @@ def test_a_given_threshold_runs_the_voxel_stage_on_a_fine_noise_mesh():
     box = trimesh.creation.box((1.0, 1.0, 1.0)).subdivide().subdivide().subdivide()
     noisy = trimesh.Trimesh(box.vertices + rng.normal(0, 0.03, box.vertices.shape), box.faces)
     progress = Progress(enabled=False)
-    pipeline.denoise_mesh_detailed(noisy, DenoiseParams(threshold=12, resolution=64), progress)
+    mesh_pipeline.denoise_mesh_detailed(noisy, DenoiseParams(threshold=12, resolution=64), progress)
     assert "foreground/importance" in progress.timings  # the voxel stage ran
     progress = Progress(enabled=False)
-    pipeline.denoise_mesh_detailed(noisy, DenoiseParams(resolution=64), progress)
+    mesh_pipeline.denoise_mesh_detailed(noisy, DenoiseParams(resolution=64), progress)
     assert "foreground/importance" not in progress.timings  # left to itself it skips it (fine noise)
 
 
@@ -109,4 +109,4 @@ def test_the_new_mesh_warns_when_it_drops_colours(legged):
     noisy = surface.mask_to_mesh(noise.noisy, grid_for_bounds(legged.bounds, 128, 20))
     noisy.visual.vertex_colors = np.tile([200, 30, 30, 255], (len(noisy.vertices), 1)).astype(np.uint8)
     with pytest.warns(UserWarning, match="no vertex colours"):
-        pipeline.denoise_mesh(noisy, resolution=128, noise_height=8.0)
+        mesh_pipeline.denoise_mesh(noisy, resolution=128, noise_height=8.0)

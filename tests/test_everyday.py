@@ -10,7 +10,15 @@ import pytest
 import trimesh
 from PIL import Image
 
-from skelfilter import io, metrics, normal_filtering, output_choice, pipeline, vertex_projection, voxelize
+from skelfilter import (
+    io,
+    mesh_pipeline,
+    metrics,
+    normal_filtering,
+    output_choice,
+    vertex_projection,
+    voxelize,
+)
 from skelfilter.closest_points import MeshSurface
 from skelfilter.params import DenoiseParams
 from skelfilter.progress import Progress
@@ -94,7 +102,7 @@ def test_literature_pair_default_beats_taubin():
     """Fandisk0.3 with no flags: below MeshLab Taubin (9.08 deg / 0.120, measured by
     benchmarks/literature.py) and pygel3d's anisotropic smoothing (7.7 deg / 0.11) on both scores."""
     noisy, clean = (io.load_mesh(os.path.join(FANDISK, f)) for f in ("noisy.obj", "clean.obj"))
-    out = pipeline.denoise_mesh(noisy)
+    out = mesh_pipeline.denoise_mesh(noisy)
     assert np.array_equal(out.faces, noisy.faces)
     angle, e_v = metrics.literature_errors(out, clean)
     assert angle == pytest.approx(5.38, abs=0.3) and e_v == pytest.approx(0.089, abs=0.005)
@@ -107,7 +115,7 @@ def test_literature_pair_default_beats_taubin():
 def test_open_scan_stays_open_and_on_its_surface():
     scan = io.load_mesh(SCAN)
     progress = Progress(enabled=False)
-    out, result, grid = pipeline.denoise_mesh_detailed(scan, progress=progress)
+    out, result, grid = mesh_pipeline.denoise_mesh_detailed(scan, progress=progress)
     assert any("the input mesh comes back" in n for n in progress.notes)
     assert np.array_equal(out.faces, scan.faces)
     assert np.array_equal(vertex_projection.boundary_vertices(out.faces, len(out.vertices)),
@@ -129,13 +137,13 @@ def test_solid_share_tells_open_from_closed():
 
 def test_closed_output_on_request_is_watertight():
     noisy, _ = noisy_sphere()
-    out = pipeline.denoise_mesh(noisy, output_mesh="closed", resolution=48)
+    out = mesh_pipeline.denoise_mesh(noisy, output_mesh="closed", resolution=48)
     assert out.is_watertight and out.volume > 0
 
 
 def test_kept_mesh_keeps_orientation_and_area(tmp_path):
     noisy, clean = noisy_sphere(level=0.5)
-    out = pipeline.denoise_mesh(noisy)
+    out = mesh_pipeline.denoise_mesh(noisy)
     assert np.array_equal(out.faces, noisy.faces)
     outward = np.einsum("ij,ij->i", out.face_normals, out.triangles_center)
     assert (outward > 0).all()
@@ -148,10 +156,10 @@ def test_input_mode_pulls_bumps_down_with_few_folds():
     faces that stay turned against the surface (where bumps had tunnels or crowded an edge) are
     counted in a note, under 1 %."""
     cube = trimesh.creation.box(extents=(1, 1, 1))
-    noisy, masks, grid = pipeline.noisy_mesh(cube, resolution=64, p=0.004, l=1, h=4, seed=3)
+    noisy, masks, grid = mesh_pipeline.noisy_mesh(cube, resolution=64, p=0.004, l=1, h=4, seed=3)
     progress = Progress(enabled=False)
     params = DenoiseParams(resolution=64, output_mesh="input", noise_height=7.0)
-    out, _, _ = pipeline.denoise_mesh_detailed(noisy, params, progress)
+    out, _, _ = mesh_pipeline.denoise_mesh_detailed(noisy, params, progress)
     assert np.array_equal(out.faces, noisy.faces)
     left = voxelize.voxelize_on_grid(out, grid) & masks.bumps
     assert left.sum() < 0.25 * masks.bumps.sum()
@@ -193,9 +201,9 @@ def test_auto_resolution_follows_the_edge_length():
 
 def test_auto_output_picks_a_closed_mesh_for_skeleton_scale_noise():
     cube = trimesh.creation.box(extents=(1, 1, 1))
-    noisy, _, _ = pipeline.noisy_mesh(cube, resolution=96, seed=1)
+    noisy, _, _ = mesh_pipeline.noisy_mesh(cube, resolution=96, seed=1)
     progress = Progress(enabled=False)
-    out, _, _ = pipeline.denoise_mesh_detailed(noisy, DenoiseParams(resolution=96), progress)
+    out, _, _ = mesh_pipeline.denoise_mesh_detailed(noisy, DenoiseParams(resolution=96), progress)
     assert any("new closed mesh" in n for n in progress.notes)
     assert out.is_watertight and len(out.faces) != len(noisy.faces)
 
@@ -204,7 +212,7 @@ def test_clean_open_surface_skips_the_voxel_stage():
     sphere = trimesh.creation.icosphere(4)
     cap = sphere.submesh([np.flatnonzero(sphere.triangles_center[:, 2] > 0.2)], append=True)
     progress = Progress(enabled=False)
-    out, result, _ = pipeline.denoise_mesh_detailed(cap, progress=progress)
+    out, result, _ = mesh_pipeline.denoise_mesh_detailed(cap, progress=progress)
     assert any("open surface" in n for n in progress.notes) and not result.stages
     assert np.array_equal(out.faces, cap.faces)
     assert np.abs(out.vertices - cap.vertices).max() < 0.1 * cap.edges_unique_length.mean()

@@ -12,7 +12,7 @@ import pymeshlab
 import pytest
 import trimesh
 
-from skelfilter import cli, filters, meshlab, meshset, mlx, pipeline
+from skelfilter import cli, filters, mesh_pipeline, meshlab, meshset, mlx
 from skelfilter.errors import ParameterError
 from skelfilter.filters import ADD_SKELETON_NOISE, FILTERS, SKELETON_SALIENCY_DENOISE
 from skelfilter.params import DenoiseParams, NoiseParams
@@ -172,12 +172,12 @@ def test_meshset_functions_add_a_layer_like_meshlab_filters():
     assert np.array_equal(meshset.to_trimesh(ms.current_mesh()).vertices, box.vertices)
     assert np.array_equal(meshset.to_trimesh(ms.current_mesh()).faces, box.faces)
     meshset.apply_skeleton_noise(ms, resolution=40, seed=2, l=1, p=0.01)
-    noisy = pipeline.noisy_mesh(box, NoiseParams(resolution=40, seed=2, l=1, p=0.01))[0]
+    noisy = mesh_pipeline.noisy_mesh(box, NoiseParams(resolution=40, seed=2, l=1, p=0.01))[0]
     assert (ms.mesh_number(), ms.current_mesh_id()) == (2, 1)
     assert np.array_equal(ms.current_mesh().vertex_matrix(), noisy.vertices)
     meshset.register()
     ms.apply_skeleton_saliency_denoise(resolution=40, padding=0, importance="euclidean")
-    clean = pipeline.denoise_mesh(noisy, resolution=40, importance="euclidean")
+    clean = mesh_pipeline.denoise_mesh(noisy, resolution=40, importance="euclidean")
     assert (ms.mesh_number(), ms.current_mesh_id()) == (3, 2)
     assert np.array_equal(ms.current_mesh().vertex_matrix(), clean.vertices)
     assert np.array_equal(ms.current_mesh().face_matrix(), clean.faces)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from skelfilter import io, pipeline
+from skelfilter import io, mesh_pipeline
 from skelfilter.errors import InputError
 from skelfilter.frame import Frame
 
@@ -40,9 +40,9 @@ def _deviation(out, reference, scale, shift):
 @pytest.mark.parametrize("kind", ["closed", "kept", "noise"])
 def test_scale_and_shift_do_not_change_the_result(fandisk, scan, kind):
     mesh, run = {
-        "closed": (fandisk, lambda m: pipeline.denoise_mesh(m, resolution=40, output_mesh="closed")),
-        "kept": (scan, lambda m: pipeline.denoise_mesh(m, resolution=40)),
-        "noise": (fandisk, lambda m: pipeline.noisy_mesh(m, resolution=40, seed=3)[0]),
+        "closed": (fandisk, lambda m: mesh_pipeline.denoise_mesh(m, resolution=40, output_mesh="closed")),
+        "kept": (scan, lambda m: mesh_pipeline.denoise_mesh(m, resolution=40)),
+        "noise": (fandisk, lambda m: mesh_pipeline.noisy_mesh(m, resolution=40, seed=3)[0]),
     }[kind]
     reference = run(mesh)
     size = np.ptp(mesh.vertices, axis=0).max()
@@ -64,7 +64,7 @@ def test_scale_and_shift_do_not_change_the_result(fandisk, scan, kind):
 def test_tiny_box_survives_denoising_and_every_text_format(tmp_path):
     box = trimesh.creation.box()
     tiny = _moved(box, 1e-8, 0.0)
-    out = pipeline.denoise_mesh(tiny, resolution=32, output_mesh="closed")
+    out = mesh_pipeline.denoise_mesh(tiny, resolution=32, output_mesh="closed")
     assert out.is_watertight and out.volume == pytest.approx(1e-24, rel=0.05)
     assert np.ptp(out.vertices, axis=0) == pytest.approx([1e-8] * 3, rel=0.05)
     for ext in ("ply", "obj", "off", "stl"):

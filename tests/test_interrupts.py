@@ -14,7 +14,7 @@ import pytest
 import trimesh
 
 import harness
-from skelfilter import pipeline
+from skelfilter import mesh_pipeline
 
 HARNESS = harness.__file__
 
@@ -34,7 +34,7 @@ def digest(path):
 @pytest.fixture(scope="module")
 def noisy_file(tmp_path_factory):
     path = tmp_path_factory.mktemp("in") / "noisy.ply"
-    noisy, _, _ = pipeline.noisy_mesh(trimesh.creation.box((1.0, 0.8, 0.6)), resolution=48, seed=1)
+    noisy, _, _ = mesh_pipeline.noisy_mesh(trimesh.creation.box((1.0, 0.8, 0.6)), resolution=48, seed=1)
     noisy.export(path)
     return path
 

@@ -6,7 +6,7 @@ import pytest
 import trimesh
 from scipy.spatial import cKDTree
 
-from skelfilter import files, io, pipeline, point_cloud
+from skelfilter import files, io, mesh_pipeline, point_cloud
 from skelfilter.errors import InputError
 from skelfilter.params import DenoiseParams, NoiseParams
 
@@ -18,7 +18,7 @@ def bumpy(tmp_path_factory):
     """Fandisk with the thesis' stripes, its grid, and 60000 points sampled on it (no normals) with an
     'intensity' attribute, in a PLY file."""
     clean = io.load_mesh(files.os.path.join(files.os.path.dirname(io.__file__), "data", "fandisk.obj"))
-    noisy, _, grid = pipeline.noisy_mesh(clean, NoiseParams(resolution=RESOLUTION, seed=2))
+    noisy, _, grid = mesh_pipeline.noisy_mesh(clean, NoiseParams(resolution=RESOLUTION, seed=2))
     points, _ = trimesh.sample.sample_surface_even(noisy, 60000, seed=1)
     cloud = o3d.t.geometry.PointCloud(o3d.core.Tensor(points.astype(np.float32)))
     cloud.point.intensity = o3d.core.Tensor(np.arange(len(points), dtype=np.float32)[:, None])
@@ -38,7 +38,7 @@ def test_a_cloud_gives_the_mesh_routes_result(bumpy, tmp_path):
     params = DenoiseParams(resolution=RESOLUTION, keep_features="off")  # the route, not the noise decision, is tested
     files.denoise_file(path, tmp_path / "out.ply", params)
     out = io.load_mesh(tmp_path / "out.ply")
-    from_mesh = pipeline.denoise_mesh(noisy, params.with_(output_mesh="closed"))
+    from_mesh = mesh_pipeline.denoise_mesh(noisy, params.with_(output_mesh="closed"))
     assert out.is_watertight and out.volume > 0
     assert chamfer(out, from_mesh) < grid.pitch  # within a voxel of the mesh route
     assert chamfer(out, from_mesh) < 0.5 * chamfer(noisy, from_mesh)  # and denoised like it

@@ -10,7 +10,7 @@ import pymeshlab
 import pytest
 import trimesh
 
-from skelfilter import io, meshlab, mlx, pipeline
+from skelfilter import io, mesh_pipeline, meshlab, mlx
 from skelfilter.errors import InputError
 from skelfilter.filters import SKELETON_SALIENCY_DENOISE
 from skelfilter.params import DenoiseParams, NoiseParams
@@ -43,7 +43,7 @@ def noisy_file(tmp_path_factory):
     """A noisy box as PLY: the thesis' isolated bumps at 48 voxels."""
     path = tmp_path_factory.mktemp("in") / "noisy.ply"
     box = trimesh.creation.box((1.0, 1.2, 0.8))
-    noisy = pipeline.noisy_mesh(box, NoiseParams(resolution=48, seed=1, l=1, p=0.01))[0]
+    noisy = mesh_pipeline.noisy_mesh(box, NoiseParams(resolution=48, seed=1, l=1, p=0.01))[0]
     noisy.export(path)
     return path
 
@@ -96,7 +96,7 @@ def test_layers_behave_as_in_meshlab(noisy_file, tmp_path):
     smoothed = _direct(noisy_file, [("apply_coord_taubin_smoothing", dict(stepsmoothnum=3))])
     assert np.array_equal(layers.meshes[1].vertices, smoothed.current_mesh().vertex_matrix())
     # skelfilter's filter added its result as a new, current layer
-    denoised = pipeline.denoise_mesh(layers.meshes[1], params)
+    denoised = mesh_pipeline.denoise_mesh(layers.meshes[1], params)
     assert np.array_equal(layers.current_mesh.vertices, denoised.vertices)
 
 
@@ -129,7 +129,7 @@ def test_mixed_example_is_cleanup_denoise_smoothing(noisy_file, tmp_path):
     cleaned = _direct(noisy_file, gen.MIXED_CLEANUP)  # a MeshSet must outlive its meshes' use
     cleaned_mesh = cleaned.current_mesh()
     cleaned_mesh.compact()
-    denoised = pipeline.denoise_mesh(
+    denoised = mesh_pipeline.denoise_mesh(
         trimesh.Trimesh(cleaned_mesh.vertex_matrix(), cleaned_mesh.face_matrix(), process=False), params)
     ms = pymeshlab.MeshSet()
     ms.add_mesh(pymeshlab.Mesh(vertex_matrix=denoised.vertices, face_matrix=denoised.faces))

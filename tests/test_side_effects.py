@@ -8,7 +8,7 @@ CHECK = r'''
 import os, signal, sys
 import numpy as np
 import trimesh
-from skelfilter import pipeline, render, skeleton
+from skelfilter import mesh_pipeline, pipeline, render, skeleton
 from skelfilter.progress import Progress
 
 masks = set()  # the signal masks seen inside the skeleton step
@@ -25,7 +25,7 @@ volume = np.zeros((40, 40, 40), bool)
 volume[8:32, 8:32, 8:32] = True
 pipeline.denoise_volume(volume, progress=Progress(enabled=False, shield=shield) if shield else None)
 box = trimesh.creation.box()
-pipeline.denoise_mesh(box, resolution=32, progress=Progress(enabled=False, shield=shield) if shield else None)
+mesh_pipeline.denoise_mesh(box, resolution=32, progress=Progress(enabled=False, shield=shield) if shield else None)
 render.save_panels([box], ["box"], os.path.join(sys.argv[1], "box.png"))
 assert masks and masks == {before}, (masks, before)
 assert frozenset(signal.pthread_sigmask(signal.SIG_BLOCK, [])) == before

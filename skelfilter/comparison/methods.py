@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from skelfilter import meshlab, pipeline
+from skelfilter import mesh_pipeline, meshlab
 from skelfilter.child import run_child
 from skelfilter.errors import SkelfilterError
 from skelfilter.extras import need
@@ -36,7 +36,7 @@ def run_method(method, noisy, clean, config):
         elif method.kind == "clean":
             mesh = clean
         elif method.kind == "skelfilter":
-            mesh = pipeline.denoise_mesh(noisy, config.denoise_params(method))
+            mesh = mesh_pipeline.denoise_mesh(noisy, config.denoise_params(method))
         elif method.kind == "meshlab":
             mesh = meshlab.run_filter_script(noisy, method.script, timeout=config.timeout)
         elif method.kind == "meshlib":

@@ -21,7 +21,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import trimesh
 
-from skelfilter import io, metrics, pipeline, voxelize
+from skelfilter import io, mesh_pipeline, metrics, pipeline, voxelize
 from skelfilter.demo import sample_path
 from skelfilter.params import DenoiseParams
 
@@ -75,7 +75,7 @@ def prepare_case(case, config):
     """(clean, noisy, grid, noise masks or None, facts about the noisy mesh) of one case."""
     if case.synthetic:
         clean = _clean_model(case.model)
-        marching, noise, grid = pipeline.noisy_mesh(clean, case.noise)
+        marching, noise, grid = mesh_pipeline.noisy_mesh(clean, case.noise)
         noisy = decimate(marching, config.max_faces)
         chamfer, h95, hmax = metrics.surface_distances(noisy, marching, grid, n_samples=50_000)
         facts = {"marching_cubes_faces": len(marching.faces), "faces": len(noisy.faces),
