@@ -185,7 +185,7 @@ def usable_cores():
 def quiet_distributed():
     """Silence the log lines of Dask's scheduler and nannies in this process (the CLI's choice: its
     summary says what they mean)."""
-    need("distributed", "skelfilter batch")  # its import sets its loggers' levels, which this overrides
+    need("distributed", "a batch on Dask")  # its import sets its loggers' levels, which this overrides
 
     for name in ["distributed", *logging.root.manager.loggerDict]:
         if name.startswith("distributed"):
