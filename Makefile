@@ -18,7 +18,7 @@ setup:
 		$$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq $$missing; \
 	fi
 	$(PIP) install -q -e '.[test]'
-	$(PYTHON) -m skelfilter.kernels
+	$(PYTHON) -m skelfilter.cli.warm_up
 
 demo: setup
 	$(PYTHON) -m skelfilter.demo --out demo-output

@@ -48,7 +48,7 @@ def noise_scores(clean, noise, result, reach):
 
 def denoising_rows(resolution, seed=1):
     from skelfilter import add_noise, denoise_volume
-    from skelfilter.voxelize import voxelize
+    from skelfilter.mesh.voxelize import voxelize
 
     rows = []
     for name, mesh in (("cube", cube_mesh()), ("fandisk", load("fandisk.obj"))):
@@ -64,7 +64,7 @@ def denoising_rows(resolution, seed=1):
 
 def property_rows(resolution):
     from skelfilter import denoise_mesh, denoise_volume
-    from skelfilter.voxelize import voxelize
+    from skelfilter.mesh.voxelize import voxelize
 
     rows = {}
     for name, mesh in (("cube", cube_mesh()), ("fandisk", load("fandisk.obj"))):
@@ -86,7 +86,7 @@ def property_rows(resolution):
     rows["bunny out watertight"] = bool(out.is_watertight)
     rows["bunny out bodies"] = len(out.split(only_watertight=False))
     clean, grid = voxelize(bunny, resolution, 8)
-    from skelfilter.voxelize import voxelize_on_grid
+    from skelfilter.mesh.voxelize import voxelize_on_grid
 
     back = voxelize_on_grid(out, grid)
     top = np.zeros_like(clean)

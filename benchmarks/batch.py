@@ -4,7 +4,7 @@
 
 Makes ``--files`` noisy meshes (the embedded fandisk with the thesis' stripes, one seed each), then
 denoises them (1) one after another in this process, numba on every core, and (2) with
-`skelfilter.batch.denoise_many` on a LocalCluster; prints both wall times and the speed-up.
+`skelfilter.jobs.batch.denoise_many` on a LocalCluster; prints both wall times and the speed-up.
 """
 
 import argparse
@@ -15,7 +15,11 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from skelfilter import batch, demo, files, io, mesh_pipeline  # noqa: E402
+from skelfilter.io import mesh_files as io  # noqa: E402
+from skelfilter.io.samples import sample_path  # noqa: E402
+from skelfilter.jobs import batch  # noqa: E402
+from skelfilter.jobs import denoise_file as files  # noqa: E402
+from skelfilter.mesh import pipeline as mesh_pipeline  # noqa: E402
 from skelfilter.params import DenoiseParams, NoiseParams  # noqa: E402
 
 
@@ -25,7 +29,7 @@ def main():
     parser.add_argument("--resolution", type=int, default=128)
     parser.add_argument("--workers", type=int, default=None)
     args = parser.parse_args()
-    clean = io.load_mesh(demo.sample_path())
+    clean = io.load_mesh(sample_path())
     with tempfile.TemporaryDirectory() as work:
         inputs = os.path.join(work, "in")
         os.makedirs(inputs)

@@ -51,20 +51,23 @@ def _reset_peak():
 
 def make_noisy(size, path, seed=1):
     """Fandisk voxelized at ``size`` with the thesis' stripes, as a mesh file."""
-    from skelfilter import io, mesh_pipeline
+    from skelfilter.io import mesh_files
+    from skelfilter.mesh import pipeline as mesh_pipeline
     from skelfilter.params import NoiseParams
 
-    noisy, _, _ = mesh_pipeline.noisy_mesh(io.load_mesh(SAMPLE), NoiseParams(resolution=size, seed=seed))
-    io.save_mesh(noisy, path)
+    noisy, _, _ = mesh_pipeline.noisy_mesh(mesh_files.load_mesh(SAMPLE), NoiseParams(resolution=size, seed=seed))
+    mesh_files.save_mesh(noisy, path)
 
 
 def run_one(size, src):
     """Denoise the mesh file ``src`` at ``size``, file to file; then time the reference EDT."""
     from scipy import ndimage
 
-    from skelfilter import io, mesh_pipeline, voxelize
+    from skelfilter.io import mesh_files
+    from skelfilter.mesh import pipeline as mesh_pipeline
+    from skelfilter.mesh import voxelize
     from skelfilter.params import DenoiseParams
-    from skelfilter.progress import Progress
+    from skelfilter.runtime.progress import Progress
 
     class Probe(Progress):
         def __init__(self):
@@ -89,10 +92,10 @@ def run_one(size, src):
         _reset_peak()
         start = time.perf_counter()
         with probe.step("read"):
-            mesh = io.load_mesh(src)
+            mesh = mesh_files.load_mesh(src)
         out, result, grid = mesh_pipeline.denoise_mesh_detailed(mesh, params, probe)
         with probe.step("write"):
-            io.save_mesh(out, dst)
+            mesh_files.save_mesh(out, dst)
         total = time.perf_counter() - start
     peak = max(probe.memory.values())
     stages = {}

@@ -1,7 +1,7 @@
 """Everyday noise: skelfilter against MeshLab Taubin and pygel3d on the literature's pairs and on
 Gaussian noise of our own.
 
-Two parts, each a table of the field's two scores (`skelfilter.metrics.literature_errors`: mean
+Two parts, each a table of the field's two scores (`skelfilter.evaluation.metrics.literature_errors`: mean
 face-normal angle in degrees / E_v in mean edge lengths) and skelfilter's time:
 
 - ``own``: Gaussian noise along the vertex normals (0.2, 0.3, 0.5, 0.7 mean edge lengths, seed 11)
@@ -9,7 +9,7 @@ face-normal angle in degrees / E_v in mean edge lengths) and skelfilter's time:
   spot and twelve (held out).
 - ``literature``: the four pairs of ``shared/data/literature`` (never used to choose anything),
   the acceptance of the everyday-scan issue: skelfilter without flags below MeshLab Taubin (its
-  defaults, ``skelfilter/comparison/scripts/taubin.mlx``) on both scores on every pair, and below pygel3d's
+  defaults, ``skelfilter/evaluation/comparison/scripts/taubin.mlx``) on both scores on every pair, and below pygel3d's
   ``hmesh.anisotropic_smooth`` (10 iterations) on the two fandisk pairs.
 
     python benchmarks/literature.py [--part own|literature|all] [--out FILE.md] [--pictures DIR]
@@ -30,10 +30,13 @@ import trimesh
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
-from skelfilter import io, mesh_pipeline, meshlab, metrics  # noqa: E402
-from skelfilter.comparison.methods import pygel3d_smooth  # noqa: E402
 from skelfilter.errors import SkelfilterError  # noqa: E402
-from skelfilter.progress import Progress  # noqa: E402
+from skelfilter.evaluation import metrics  # noqa: E402
+from skelfilter.evaluation.comparison.methods import pygel3d_smooth  # noqa: E402
+from skelfilter.io import mesh_files as io  # noqa: E402
+from skelfilter.mesh import pipeline as mesh_pipeline  # noqa: E402
+from skelfilter.meshlab import scripts as meshlab  # noqa: E402
+from skelfilter.runtime.progress import Progress  # noqa: E402
 
 SHAPES = os.path.join(ROOT, "skelfilter", "data")  # the clean shapes (package data)
 PAIRS_DATA = os.path.join(ROOT, "benchmarks", "data", "literature")  # see benchmarks/data/README.md
@@ -43,7 +46,7 @@ OWN_SHAPES = {"fandisk": "fandisk.obj", "rocker-arm": "rocker-arm.obj", "bunny":
 HELD_OUT = ("spot", "twelve")
 LEVELS = (0.2, 0.3, 0.5, 0.7)
 SEED = 11
-TAUBIN = os.path.join(ROOT, "skelfilter", "comparison", "scripts", "taubin.mlx")
+TAUBIN = os.path.join(ROOT, "skelfilter", "evaluation", "comparison", "scripts", "taubin.mlx")
 
 
 def gaussian_noise(clean, level, seed=SEED):
@@ -91,13 +94,13 @@ def score_row(name, noisy, clean, pictures=None):
 
 def pictures_of(name, meshes, row, path):
     """An overview and a close-up of a sharp edge (noisy, Taubin, pygel3d, skelfilter, clean), each
-    cell drawn by `skelfilter.comparison.render` with one camera per row, titled with its scores."""
+    cell drawn by `skelfilter.evaluation.comparison.render` with one camera per row, titled with its scores."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from skelfilter.comparison import render
+    from skelfilter.evaluation.comparison import render
 
     view, up = PICTURES[name]
     overview = render.camera_for(meshes[-1], view, up)

@@ -37,14 +37,16 @@ import shapes
 import trimesh
 from quality_tables import SPLITS
 
-from skelfilter import io, mesh_pipeline, metrics
-from skelfilter.comparison import render, report
-from skelfilter.comparison.config import Method
-from skelfilter.comparison.methods import run_method
-from skelfilter.comparison.run import Reporter, decimate, slug, versions
-from skelfilter.noise import NoiseResult
+from skelfilter.core.noise import NoiseResult
+from skelfilter.evaluation import metrics
+from skelfilter.evaluation.comparison import render, report
+from skelfilter.evaluation.comparison.config import Method
+from skelfilter.evaluation.comparison.methods import run_method
+from skelfilter.evaluation.comparison.run import Reporter, decimate, slug, versions
+from skelfilter.io import mesh_files
+from skelfilter.mesh import pipeline as mesh_pipeline
+from skelfilter.mesh.voxelize import Grid, grid_for_bounds, voxelize_on_grid
 from skelfilter.params import DenoiseParams, NoiseParams
-from skelfilter.voxelize import Grid, grid_for_bounds, voxelize_on_grid
 
 ROOT = shapes.ROOT
 NOISE_KINDS = {
@@ -58,7 +60,7 @@ SEEDS = (1, 2)
 HELD_OUT = ("spot", "l-bracket", "twelve", "stool", "gear")  # reported apart: never look at them while tuning
 QUICK_SHAPES = ("cube", "fandisk", "block", "l-bracket")
 DEFAULT_VARIANTS = ("default", "thesis:preset=thesis")
-SCRIPTS = os.path.join(ROOT, "skelfilter", "comparison", "scripts")
+SCRIPTS = os.path.join(ROOT, "skelfilter", "evaluation", "comparison", "scripts")
 RIVALS = {m.name: m for m in (
     Method("laplacian", "meshlab", script=os.path.join(SCRIPTS, "laplacian_surface_preserving.mlx")),
     Method("two-step", "meshlab", script=os.path.join(SCRIPTS, "two_step.mlx")),
@@ -67,7 +69,8 @@ RIVALS = {m.name: m for m in (
     Method("taubin", "meshlab", script=os.path.join(SCRIPTS, "taubin.mlx")),
     Method("meshlib", "meshlib"),
 )}
-MAX_FACES = 60_000  # as skelfilter/comparison/default.toml: the rivals' input is decimated to this many faces
+# As skelfilter/evaluation/comparison/default.toml: the rivals' input is decimated to this many faces.
+MAX_FACES = 60_000
 RIVAL_NICENESS = 10
 CLEAN_PASS_PADDING = 8  # voxels around a clean shape on the grid of the clean pass
 # Bump when the noisy meshes or the scores change meaning: cached ones are then made again.
@@ -106,7 +109,8 @@ class Case:
 
 @dataclass(frozen=True)
 class Setup:
-    """What every task needs to know; ``timeout`` (s) is read by `skelfilter.comparison.methods.run_method`."""
+    """What every task needs to know; ``timeout`` (s) is read by
+    `skelfilter.evaluation.comparison.methods.run_method`."""
 
     resolution: int
     cache: str
@@ -152,7 +156,7 @@ def mesh_hash(mesh):
 
 def _write_json(path, data):
     """Write ``data`` as JSON atomically (NaN kept as NaN)."""
-    io.atomic_write(path, lambda tmp: _dump(tmp, data))
+    mesh_files.atomic_write(path, lambda tmp: _dump(tmp, data))
 
 
 def _dump(path, data):
@@ -166,7 +170,7 @@ def _read_json(path):
 
 
 def _save_npz(path, **arrays):
-    io.atomic_write(path, lambda tmp: np.savez_compressed(tmp, **arrays), ())
+    mesh_files.atomic_write(path, lambda tmp: np.savez_compressed(tmp, **arrays), ())
 
 
 # ------------------------------------------------------------------------------------------ scores
@@ -182,13 +186,13 @@ def score(mesh, prep):
     From the result's voxelization V on the noise grid: ``bumps_left`` = |bumps ∩ V| / |bumps|,
     ``dents_left`` = |dents \\ V| / |dents| (NaN without dents), ``noise_left`` (both numerators over
     both denominators), ``clean_lost`` = |(clean \\ dents) \\ V| / |clean|, ``new_material`` =
-    |V \\ clean \\ bumps| / |clean|. From the surfaces (`skelfilter.metrics`): ``chamfer``,
+    |V \\ clean \\ bumps| / |clean|. From the surfaces (`skelfilter.evaluation.metrics`): ``chamfer``,
     ``hausdorff_95``, ``normal_error_deg``, ``sharp_edge_mean``/``sharp_edge_max`` (the clean
     shape's sharp edges to the result). ``genus``/``components``/``genus_from`` by
-    `skelfilter.metrics.genus` (on the noise grid when the result is no closed manifold), and
-    ``voxel_genus``, the genus of V (`skelfilter.metrics.voxel_genus`): marching-cubes surfaces have
+    `skelfilter.evaluation.metrics.genus` (on the noise grid when the result is no closed manifold), and
+    ``voxel_genus``, the genus of V (`skelfilter.evaluation.metrics.voxel_genus`): marching-cubes surfaces have
     sub-voxel tunnels that V does not see. ``thin_kept``: the share of the clean shape's thin parts
-    (`skelfilter.metrics.thin_parts`, radius `THIN_RADIUS`: plates, rods, rims and edge voxels) in V;
+    (`skelfilter.evaluation.metrics.thin_parts`, radius `THIN_RADIUS`: plates, rods, rims and edge voxels) in V;
     ``error_ratio``: |V xor clean| over the noisy input's |noisy xor clean| (below 1: better than
     doing nothing).
 
@@ -261,10 +265,10 @@ def _make_noisy(case, resolution, stem):
     _save_npz(stem + ".npz", clean=np.packbits(noise.clean), bumps=np.packbits(noise.bumps),
               dents=np.packbits(noise.dents), sites=noise.sites, origin=grid.origin, pitch=grid.pitch,
               shape=np.array(grid.shape))
-    io.save_mesh(marching, stem + "-marching.ply")
-    io.save_mesh(decimated, stem + "-decimated.ply")
+    mesh_files.save_mesh(marching, stem + "-marching.ply")
+    mesh_files.save_mesh(decimated, stem + "-decimated.ply")
     seconds = time.perf_counter() - start
-    decimated = io.load_mesh(stem + "-decimated.ply")  # hashed as every later run reads it
+    decimated = mesh_files.load_mesh(stem + "-decimated.ply")  # hashed as every later run reads it
     _write_json(stem + ".json", {
         "marching_faces": int(len(marching.faces)), "decimated_faces": int(len(decimated.faces)),
         "decimated_hash": mesh_hash(decimated), "bump_voxels": int(noise.bumps.sum()),
@@ -282,8 +286,8 @@ def load_case(case, setup):
                                for k in ("clean", "bumps", "dents"))
         sites = z["sites"]
     noise = NoiseResult(clean=clean, noisy=(clean | bumps) & ~dents, bumps=bumps, dents=dents, sites=sites)
-    return Prepared(shapes.load(case.shape), io.load_mesh(stem + "-marching.ply"),
-                    io.load_mesh(stem + "-decimated.ply"), noise, grid, _read_json(stem + ".json"),
+    return Prepared(shapes.load(case.shape), mesh_files.load_mesh(stem + "-marching.ply"),
+                    mesh_files.load_mesh(stem + "-decimated.ply"), noise, grid, _read_json(stem + ".json"),
                     metrics.thin_parts(clean, THIN_RADIUS))
 
 
@@ -303,7 +307,7 @@ def run_variant(case, label, params, setup, save_path):
         return {"seconds": time.perf_counter() - start, "error": f"{type(exc).__name__}: {exc}"}
     seconds = time.perf_counter() - start
     if save_path is not None:
-        io.save_mesh(mesh, save_path)
+        mesh_files.save_mesh(mesh, save_path)
     return {"seconds": seconds, "error": None, **score(mesh, prep)}
 
 
@@ -352,7 +356,7 @@ def load_rival_mesh(stem):
 def clean_pass(shape, params, resolution):
     """What denoising the clean shape itself changes: the share of voxels (of the clean voxelization)
     changed, both meshes voxelized on the shape's grid of ``resolution`` voxels, and
-    `skelfilter.metrics.pass_through` (99 % of the vertices each way within a share of the diagonal,
+    `skelfilter.evaluation.metrics.pass_through` (99 % of the vertices each way within a share of the diagonal,
     the volume change)."""
     clean = shapes.load(shape)
     start = time.perf_counter()
@@ -552,7 +556,7 @@ def write_sheet(results, cases, setup, out_dir, say):
             elif entry.get("error") is not None or not entry:
                 mesh = None
             elif column in variants:
-                mesh = io.load_mesh(_variant_mesh_path(out_dir, case, column))
+                mesh = mesh_files.load_mesh(_variant_mesh_path(out_dir, case, column))
             else:
                 mesh = load_rival_mesh(setup.rival_stem(case, column, prep.facts["decimated_hash"]))[0]
             if mesh is None:
@@ -665,7 +669,7 @@ def main(argv=None):
 
 def _shape_facts(names, resolution):
     """Per shape: the split, whether it is a CAD part, its known genus, the genus the clean mesh
-    measures (`skelfilter.metrics.genus`, on its noise grid when no closed manifold) and the genus of
+    measures (`skelfilter.evaluation.metrics.genus`, on its noise grid when no closed manifold) and the genus of
     its voxelization there (a grid of the noise grid's pitch and voxel centres, padded less)."""
     out = {}
     for name in names:

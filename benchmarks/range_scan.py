@@ -18,7 +18,7 @@ import trimesh
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from skelfilter import io  # noqa: E402
+from skelfilter.io import mesh_files as io  # noqa: E402
 
 
 def range_scan(mesh, view=(0.3, -1.0, 0.4), pixels=400, holes=6, noise=0.2, seed=1):

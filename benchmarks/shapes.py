@@ -17,13 +17,13 @@ import manifold3d
 import numpy as np
 import trimesh
 
-from skelfilter import io
-from skelfilter.demo import sample_path
+from skelfilter.io import mesh_files
+from skelfilter.io.samples import sample_path
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DATA = os.path.join(ROOT, "skelfilter", "data")
 # Facets of the built cylinders: neighbours 3.75 degrees apart, far below the 30 degrees at which
-# skelfilter.metrics.sharp_edges calls an edge sharp, so only the rims count as sharp edges.
+# skelfilter.evaluation.metrics.sharp_edges calls an edge sharp, so only the rims count as sharp edges.
 SEGMENTS = 96
 Z_UP = (0.0, 0.0, 1.0)
 Y_UP = (0.0, 1.0, 0.0)
@@ -45,7 +45,7 @@ class Shape:
 def _from_file(path):
     """A loader of a mesh file with coincident vertices merged (OBJ files split them at UV seams)."""
     def load():
-        mesh = io.load_mesh(path)
+        mesh = mesh_files.load_mesh(path)
         mesh.merge_vertices(merge_tex=True, merge_norm=True)
         return mesh
     return load

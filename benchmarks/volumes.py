@@ -12,7 +12,7 @@ voxels, a Gaussian of sigma 1.5 voxels then a threshold at one half, and opening
 ball of radius 1.
 
 Measured on the case's grid against the clean mask: ``error_ratio`` = |out xor clean| / |noisy xor
-clean| (below 1 improves on the input), ``thin_kept`` (`skelfilter.metrics.thin_parts`, radius 4)
+clean| (below 1 improves on the input), ``thin_kept`` (`skelfilter.evaluation.metrics.thin_parts`, radius 4)
 and the 26-connected ``components`` against the clean mask's. The shapes of ``quality.HELD_OUT`` are
 reported apart. Each method also runs on the clean masks: the share of their voxels it changes (a
 clean segmentation should pass through). Writes ``results.json`` and ``table.md`` into ``--out``
@@ -29,8 +29,9 @@ import numpy as np
 import shapes
 from scipy import ndimage
 
-from skelfilter import metrics, pipeline
-from skelfilter.voxelize import grid_for_bounds, voxelize_on_grid
+from skelfilter.core import pipeline
+from skelfilter.evaluation import metrics
+from skelfilter.mesh.voxelize import grid_for_bounds, voxelize_on_grid
 
 STRENGTHS = {"weak": 0.6, "strong": 1.0}  # the noise field's standard deviation, voxels
 FIELD_SIGMA = 1.0  # voxels: the smoothing of the white noise (islands and pits of 1-3 voxels)
@@ -107,8 +108,9 @@ def pictures(resolution, path, cases=PICTURE_CASES):
     row per case, written as a PNG."""
     import matplotlib.pyplot as plt
 
-    from skelfilter import render, surface
-    from skelfilter.voxelize import Grid
+    from skelfilter.evaluation import figures
+    from skelfilter.mesh import marching_cubes
+    from skelfilter.mesh.voxelize import Grid
 
     fig = plt.figure(figsize=(3.2 * len(PICTURE_METHODS), 3.2 * len(cases)), dpi=100)
     for row, (shape, strength) in enumerate(cases):
@@ -119,11 +121,11 @@ def pictures(resolution, path, cases=PICTURE_CASES):
         grid = Grid(origin=(0.0, 0.0, 0.0), pitch=1.0, shape=clean.shape)
         bounds = None
         for col, name in enumerate(PICTURE_METHODS):
-            mesh = surface.mask_to_mesh(masks[name], grid)
+            mesh = marching_cubes.mask_to_mesh(masks[name], grid)
             bounds = mesh.bounds if bounds is None else bounds
             ax = fig.add_subplot(len(cases), len(PICTURE_METHODS), row * len(PICTURE_METHODS) + col + 1,
                                  projection="3d")
-            render.draw_mesh(ax, mesh, bounds=bounds)
+            figures.draw_mesh(ax, mesh, bounds=bounds)
             ax.set_title(f"{shape} {strength}: {name}" if col == 0 else name, fontsize=9)
     fig.tight_layout()
     fig.savefig(path)

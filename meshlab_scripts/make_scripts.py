@@ -1,5 +1,5 @@
 """Regenerate the filter scripts: the MeshLab baselines of the comparison (thesis §8.2.1), shipped in
-the package (``skelfilter/comparison/scripts``), and in this folder ``skeleton_denoise.mlx`` and the
+the package (``skelfilter/evaluation/comparison/scripts``), and in this folder ``skeleton_denoise.mlx`` and the
 mixed example. Run: ``python meshlab_scripts/make_scripts.py``.
 
 Each baseline script is written by pymeshlab's own ``MeshSet.save_filter_script`` after applying its
@@ -23,12 +23,12 @@ import tempfile
 import pymeshlab
 import trimesh
 
-from skelfilter import meshlab, mlx
-from skelfilter.filters import SKELETON_SALIENCY_DENOISE
+from skelfilter.meshlab import mlx, scripts
+from skelfilter.meshlab.descriptions import SKELETON_SALIENCY_DENOISE
 from skelfilter.params import DenoiseParams
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-BASELINES = os.path.join(os.path.dirname(HERE), "skelfilter", "comparison", "scripts")
+BASELINES = os.path.join(os.path.dirname(HERE), "skelfilter", "evaluation", "comparison", "scripts")
 
 SMOOTHING = {
     # thesis §8.2.1: max normal deviation 60 deg, 50 iterations
@@ -72,13 +72,13 @@ def _saved_filters(calls):
 
 def skeleton_denoise_text(params=None):
     """``skeleton_denoise.mlx``: "Skeleton Saliency Denoise" with ``params``."""
-    return mlx.script_text([meshlab.filter_element(SKELETON_SALIENCY_DENOISE, params or DenoiseParams())])
+    return mlx.script_text([scripts.filter_element(SKELETON_SALIENCY_DENOISE, params or DenoiseParams())])
 
 
 def mixed_example_text(params=None):
     """``mixed_example.mlx``: MeshLab clean-up, skeleton denoise with ``params``, light smoothing."""
     return mlx.script_text(_saved_filters(MIXED_CLEANUP)
-                           + [meshlab.filter_element(SKELETON_SALIENCY_DENOISE, params or DenoiseParams())]
+                           + [scripts.filter_element(SKELETON_SALIENCY_DENOISE, params or DenoiseParams())]
                            + _saved_filters(MIXED_SMOOTHING))
 
 

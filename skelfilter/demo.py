@@ -7,23 +7,21 @@ import argparse
 import os
 import sys
 import time
-from importlib import resources
 
-from . import io, mesh_pipeline, render, voxelize
-from .params import DenoiseParams, NoiseParams
-from .progress import Progress
-
-
-def sample_path():
-    """Path of the embedded clean sample mesh (H. Hoppe's fandisk)."""
-    return str(resources.files("skelfilter") / "data" / "fandisk.obj")
+from skelfilter.evaluation import figures
+from skelfilter.io import mesh_files
+from skelfilter.io.samples import sample_path
+from skelfilter.mesh import pipeline as mesh_pipeline
+from skelfilter.mesh import voxelize
+from skelfilter.params import DenoiseParams, NoiseParams
+from skelfilter.runtime.progress import Progress
 
 
 def run(out_dir, resolution=160, seed=1, progress=None):
     """Make the noisy sample, denoise it and write meshes, a picture and a summary."""
     os.makedirs(out_dir, exist_ok=True)
     progress = progress or Progress(enabled=False)
-    clean = io.load_mesh(sample_path())
+    clean = mesh_files.load_mesh(sample_path())
     noise_params = NoiseParams(resolution=resolution, seed=seed)
     with progress.stage("noise"):
         noisy, noise_result, grid = mesh_pipeline.noisy_mesh(clean, noise_params, progress)
@@ -36,9 +34,9 @@ def run(out_dir, resolution=160, seed=1, progress=None):
     removed = 1.0 - (result & noise_result.bumps).sum() / max(1, noise_result.bumps.sum())
     paths = {name: os.path.join(out_dir, f"{name}.ply") for name in ("clean", "noisy", "denoised")}
     for name, mesh in (("clean", clean), ("noisy", noisy), ("denoised", denoised)):
-        io.save_mesh(mesh, paths[name])
+        mesh_files.save_mesh(mesh, paths[name])
     picture = os.path.join(out_dir, "before-after.png")
-    render.save_panels([noisy, denoised, clean], ["noisy", "skelfilter", "clean"], picture)
+    figures.save_panels([noisy, denoised, clean], ["noisy", "skelfilter", "clean"], picture)
     summary = (f"fandisk at {resolution} voxels, stripes p={noise_params.p} r={noise_params.r} "
                f"h={noise_params.h} l={noise_params.l}: {noise_result.bumps.sum()} noise voxels, "
                f"{100 * removed:.1f}% removed; denoising took {elapsed:.1f} s")

@@ -3,7 +3,7 @@
 Every parameter is a dataclass field whose metadata carries what MeshLab shows
 of a filter parameter: a short label, a description (the tooltip and the CLI
 help), its unit, its choices and, for lengths and thresholds, whether the value
-is absolute (voxels) or relative to the model's size. :mod:`skelfilter.filters`
+is absolute (voxels) or relative to the model's size. :mod:`skelfilter.meshlab.descriptions`
 builds the MeshLab-style filter descriptions from these dataclasses, and the CLI
 flags, the Python and MeshSet defaults, the .mlx scripts and ``docs/filters.md``
 derive from those.
@@ -21,7 +21,7 @@ from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
-from .errors import ParameterError
+from skelfilter.errors import ParameterError
 
 ABSOLUTE = "absolute"  # a length in voxels of the grid
 RELATIVE = "relative"  # a fraction of the longest side of the model's bounding box

@@ -29,7 +29,7 @@ def cube_volume(size, pad):
 
 @pytest.fixture(scope="session")
 def fandisk_128():
-    from skelfilter.voxelize import voxelize
+    from skelfilter.mesh.voxelize import voxelize
 
     return voxelize(load("fandisk.obj"), 128, 8)[0]
 

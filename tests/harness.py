@@ -5,7 +5,7 @@ Run skelfilter's CLI with one: ``python tests/harness.py FAULT ARGUMENT -- CLI-A
 - ``pause STEP``: the progress step of this name (with its stage prefix, e.g.
   ``foreground/importance``) says ``paused in STEP`` on stderr and waits a second inside its shielded
   block, so that a test can signal the process inside any step;
-- ``meshlab ACTION[@N]``: the pymeshlab child process of `skelfilter.meshlab_filters.run_filters`
+- ``meshlab ACTION[@N]``: the pymeshlab child process of `skelfilter.meshlab.pymeshlab_filters.run_filters`
   aborts (``abort``) or hangs (``sleep``) before its step N (default 0);
 - ``batch-kill NAME``: the batch worker that takes the input file named NAME kills itself.
 
@@ -30,7 +30,7 @@ def with_harness_path(env):
 
 
 def pause_in(key):
-    from skelfilter import progress
+    from skelfilter.runtime import progress
 
     original = progress.Progress.step
 
@@ -49,26 +49,26 @@ def pause_in(key):
 def meshlab_child_fault(action, patch=None):
     """Start the MeshLab children with `faulty_meshlab_child`; ``patch(module, name, value)`` sets the
     attribute (pytest's ``monkeypatch.setattr``; a plain setattr by default)."""
-    from skelfilter import meshlab_filters
+    from skelfilter.meshlab import pymeshlab_filters
 
-    original = meshlab_filters.run_child
+    original = pymeshlab_filters.run_child
 
     def run_child(module, function, workdir, timeout, what):
         with open(os.path.join(workdir, FAULT_FILE), "w", encoding="utf-8") as f:
             f.write(action)
         return original("harness", "faulty_meshlab_child", workdir, timeout, what)
 
-    (patch or setattr)(meshlab_filters, "run_child", run_child)
+    (patch or setattr)(pymeshlab_filters, "run_child", run_child)
 
 
 def faulty_meshlab_child(workdir):
     """The MeshLab child's entry point with its fault: the step'th filter aborts or hangs."""
-    from skelfilter import meshlab_filters
+    from skelfilter.meshlab import pymeshlab_filters
 
     with open(os.path.join(workdir, FAULT_FILE), encoding="utf-8") as f:
         action, _, at = f.read().partition("@")
     calls = [0]
-    original = meshlab_filters.apply_filter
+    original = pymeshlab_filters.apply_filter
 
     def apply_filter(ms, name, params):
         if calls[0] == int(at or 0):
@@ -78,8 +78,8 @@ def faulty_meshlab_child(workdir):
         calls[0] += 1
         return original(ms, name, params)
 
-    meshlab_filters.apply_filter = apply_filter
-    meshlab_filters._child_main(workdir)
+    pymeshlab_filters.apply_filter = apply_filter
+    pymeshlab_filters._child_main(workdir)
 
 
 class KillOnInput(WorkerPlugin):
@@ -89,7 +89,7 @@ class KillOnInput(WorkerPlugin):
         self.name = name
 
     def setup(self, worker):
-        from skelfilter import batch
+        from skelfilter.jobs import batch
 
         original, name = batch._task, self.name
 
@@ -102,7 +102,7 @@ class KillOnInput(WorkerPlugin):
 
 
 def kill_batch_worker_on(name):
-    from skelfilter import batch
+    from skelfilter.jobs import batch
 
     original = batch.local_cluster
 
@@ -119,7 +119,7 @@ FAULTS = {"pause": pause_in, "meshlab": meshlab_child_fault, "batch-kill": kill_
 if __name__ == "__main__":
     fault, argument, separator, *cli_arguments = sys.argv[1:]
     assert separator == "--", "usage: harness.py FAULT ARGUMENT -- CLI-ARGUMENTS"
-    from skelfilter.cli import main  # first: the CLI starts the libraries' threads with signals blocked
+    from skelfilter.cli.commands import main  # first: the CLI starts the libraries' threads with signals blocked
 
     FAULTS[fault](argument)
     sys.exit(main(cli_arguments))

@@ -11,7 +11,7 @@ from conftest import load
 from scipy import ndimage
 
 from skelfilter import add_noise, denoise_mesh, denoise_volume
-from skelfilter.voxelize import voxelize, voxelize_on_grid
+from skelfilter.mesh.voxelize import voxelize, voxelize_on_grid
 
 REACH = 3 + 2.1 + 1  # h + r + 1: farther than this from any noise voxel is "away from the noise"
 

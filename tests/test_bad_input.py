@@ -11,9 +11,12 @@ import numpy as np
 import pytest
 import trimesh
 
-from skelfilter import DenoiseParams, NoiseParams, io, mesh_pipeline, pipeline
+from skelfilter import DenoiseParams, NoiseParams
+from skelfilter.core import pipeline
 from skelfilter.errors import InputError, ParameterError, ResourceError
-from skelfilter.meshlab import run_filter_script
+from skelfilter.io import mesh_files
+from skelfilter.mesh import pipeline as mesh_pipeline
+from skelfilter.meshlab.scripts import run_filter_script
 
 SCRIPT = '<!DOCTYPE FilterScript>\n<FilterScript>\n <filter name="Taubin Smooth"/>\n</FilterScript>\n'
 
@@ -164,7 +167,7 @@ def files(tmp_path_factory):
     trimesh.util.concatenate([far, far.copy().apply_translation((1e4, 0, 0))]).export(root / "apart.ply")
     small_far = trimesh.creation.box()
     small_far.vertices = small_far.vertices * 1e-3 + 1e9
-    io.save_mesh(small_far, root / "smallfar.ply")
+    mesh_files.save_mesh(small_far, root / "smallfar.ply")
     (root / "adir").mkdir()
     (root / "adir.ply").mkdir()
     np.save(root / "labels.npy", np.arange(27).reshape(3, 3, 3) % 3)
@@ -217,7 +220,7 @@ def _cube():
 def _meshset_call(name, **params):
     import pymeshlab
 
-    from skelfilter import meshset
+    from skelfilter.meshlab import meshset
 
     meshset.register()
     ms = pymeshlab.MeshSet()
@@ -290,13 +293,13 @@ def test_library_warnings_are_one_line_or_silent(capsys):
     import logging
     import warnings
 
-    from skelfilter import cli
+    from skelfilter.cli import commands
 
     with warnings.catch_warnings():
         saved = warnings.showwarning
         try:
             for quiet, expected in ((False, "skelfilter: warning: a library complains\n" * 2), (True, "")):
-                cli._route_library_messages(quiet)
+                commands._route_library_messages(quiet)
                 warnings.warn("a library\n complains", UserWarning, stacklevel=1)
                 logging.getLogger("trimesh").warning("a library complains")
                 assert capsys.readouterr().err == expected
@@ -308,10 +311,10 @@ def test_library_warnings_are_one_line_or_silent(capsys):
 def test_outputs_follow_the_umask(files, tmp_path):
     old = os.umask(0o027)
     try:
-        io.save_mesh(_cube(), tmp_path / "new.ply")
+        mesh_files.save_mesh(_cube(), tmp_path / "new.ply")
         assert os.stat(tmp_path / "new.ply").st_mode & 0o777 == 0o640
         os.chmod(tmp_path / "new.ply", 0o604)
-        io.save_mesh(_cube(), tmp_path / "new.ply")  # a replaced file keeps its mode
+        mesh_files.save_mesh(_cube(), tmp_path / "new.ply")  # a replaced file keeps its mode
         assert os.stat(tmp_path / "new.ply").st_mode & 0o777 == 0o604
     finally:
         os.umask(old)

@@ -13,8 +13,9 @@ import pytest
 import trimesh
 
 import harness
-from skelfilter import batch, io
 from skelfilter.errors import InputError, ParameterError
+from skelfilter.io import mesh_files
+from skelfilter.jobs import batch
 
 
 def digest(path):
@@ -63,7 +64,7 @@ def test_batch_reports_failures_and_a_rerun_skips_what_is_done(inputs, tmp_path)
         if name.endswith(".npy"):
             assert np.load(out / name).shape == (40, 40, 40)
         else:
-            assert len(io.load_mesh(out / name).faces) > 0
+            assert len(mesh_files.load_mesh(out / name).faces) > 0
     assert not (out / "corrupt.ply").exists() and not (out / "dies.ply").exists()
     assert sorted(os.listdir(out)) == sorted(good + ["summary.csv", "summary.json"])
     before = {name: (digest(out / name), os.stat(out / name).st_mtime_ns) for name in good}
@@ -90,7 +91,7 @@ def test_python_api_and_bad_batches(inputs, tmp_path):
     rows = batch.denoise_many([str(inputs / "mesh1.obj"), str(inputs / "ball.npy")], str(tmp_path), workers=1,
                               resolution=32, to="ply", spacing=(1.0, 1.0, 2.0))  # the spacing: for the volume
     assert [row["status"] for row in rows] == ["ok", "ok"]
-    assert io.load_mesh(tmp_path / "ball.ply").is_watertight  # a volume to a mesh
+    assert mesh_files.load_mesh(tmp_path / "ball.ply").is_watertight  # a volume to a mesh
     with pytest.raises(InputError, match="no such file or folder"):
         batch.denoise_many([str(inputs / "missing.ply")], str(tmp_path))
     with pytest.raises(InputError, match="the pattern matches no file"):

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from skelfilter import cli
+from skelfilter.cli import commands
 from skelfilter.errors import ResourceError
-from skelfilter.memory import check_grid_fits
+from skelfilter.runtime.memory import check_grid_fits
 
 
 def run_cli(*args):
@@ -128,12 +128,12 @@ def test_refuses_to_overwrite_input(cube_file, tmp_path):
 
 
 def test_flags_come_from_the_parameter_dataclass():
-    parser = cli.build_parser()
+    parser = commands.build_parser()
     args = parser.parse_args(["denoise", "a.obj", "b.obj", "--threshold", "12", "--stages", "foreground",
                               "--edt-filter", "none", "--importance", "estimate", "--skeleton", "ima", "--k", "0.5"])
-    params = cli._params(cli.SKELETON_SALIENCY_DENOISE, args)
+    params = commands._params(commands.SKELETON_SALIENCY_DENOISE, args)
     assert (params.threshold, params.stages, params.edt_filter, params.importance, params.skeleton, params.k) == (
         12.0, "foreground", "none", "estimate", "ima", 0.5)
     args = parser.parse_args(["noise", "a.obj", "b.obj", "--p", "0.02", "--l", "1", "--dents"])
-    noise = cli._params(cli.ADD_SKELETON_NOISE, args)
+    noise = commands._params(commands.ADD_SKELETON_NOISE, args)
     assert (noise.p, noise.l, noise.dents) == (0.02, 1, True)

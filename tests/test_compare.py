@@ -10,15 +10,15 @@ import pytest
 import trimesh
 from PIL import Image
 
-from skelfilter.comparison import report
-from skelfilter.comparison.config import Method, default_config_path, load_config
-from skelfilter.comparison.methods import run_method
-from skelfilter.comparison.run import Reporter, run_compare
 from skelfilter.errors import InputError, ParameterError
+from skelfilter.evaluation.comparison import report
+from skelfilter.evaluation.comparison.config import Method, default_config_path, load_config
+from skelfilter.evaluation.comparison.methods import run_method
+from skelfilter.evaluation.comparison.run import Reporter, run_compare
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-SMOKE = os.path.join(HERE, "..", "skelfilter", "comparison", "smoke.toml")
-SCRIPTS = os.path.join(HERE, "..", "skelfilter", "comparison", "scripts")
+SMOKE = os.path.join(HERE, "..", "skelfilter", "evaluation", "comparison", "smoke.toml")
+SCRIPTS = os.path.join(HERE, "..", "skelfilter", "evaluation", "comparison", "scripts")
 
 
 def _write(tmp_path, text):

@@ -7,12 +7,14 @@ import pytest
 import trimesh
 from scipy import ndimage
 
-from skelfilter import mesh_pipeline, metrics, pipeline
+from skelfilter.core import pipeline
+from skelfilter.core.noise import add_noise
 from skelfilter.errors import ParameterError
-from skelfilter.noise import add_noise
+from skelfilter.evaluation import metrics
+from skelfilter.mesh import pipeline as mesh_pipeline
+from skelfilter.mesh.voxelize import voxelize
 from skelfilter.params import DenoiseParams
-from skelfilter.progress import Progress
-from skelfilter.voxelize import voxelize
+from skelfilter.runtime.progress import Progress
 
 
 def _mesh(solid):
@@ -104,9 +106,9 @@ def test_a_given_threshold_runs_the_voxel_stage_on_a_fine_noise_mesh():
 
 def test_the_new_mesh_warns_when_it_drops_colours(legged):
     noise = add_noise(voxelize(legged, 128, 20)[0], p=0.006, r=2.1, h=3, l=6, seed=2)
-    from skelfilter import surface
-    from skelfilter.voxelize import grid_for_bounds
-    noisy = surface.mask_to_mesh(noise.noisy, grid_for_bounds(legged.bounds, 128, 20))
+    from skelfilter.mesh import marching_cubes
+    from skelfilter.mesh.voxelize import grid_for_bounds
+    noisy = marching_cubes.mask_to_mesh(noise.noisy, grid_for_bounds(legged.bounds, 128, 20))
     noisy.visual.vertex_colors = np.tile([200, 30, 30, 255], (len(noisy.vertices), 1)).astype(np.uint8)
     with pytest.warns(UserWarning, match="no vertex colours"):
         mesh_pipeline.denoise_mesh(noisy, resolution=128, noise_height=8.0)

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from scipy import ndimage as ndi
 
-from skelfilter.edt_filters import minify
+from skelfilter.core.edt_filters import minify
+from skelfilter.core.reconstruct import reconstruction, reverse_edt
 from skelfilter.errors import ParameterError
-from skelfilter.reconstruct import reconstruction, reverse_edt
 
 
 def _blob(shape, seed, sigma=2.0, level=0.0):
@@ -144,7 +144,7 @@ def test_cube_reconstruction_loses_only_corner_voxels(cube):
 
 
 def test_needles_peels_voxel_thin_spikes_and_nothing_of_a_solid():
-    from skelfilter.edt_filters import needles
+    from skelfilter.core.edt_filters import needles
 
     x = np.zeros((30, 30, 30), bool)
     x[5:25, 5:25, 5:15] = True

@@ -10,18 +10,13 @@ import pytest
 import trimesh
 from PIL import Image
 
-from skelfilter import (
-    io,
-    mesh_pipeline,
-    metrics,
-    normal_filtering,
-    output_choice,
-    vertex_projection,
-    voxelize,
-)
-from skelfilter.closest_points import MeshSurface
+from skelfilter.evaluation import metrics
+from skelfilter.io import mesh_files
+from skelfilter.mesh import normal_filtering, output_choice, vertex_projection, voxelize
+from skelfilter.mesh import pipeline as mesh_pipeline
+from skelfilter.mesh.closest_points import MeshSurface
 from skelfilter.params import DenoiseParams
-from skelfilter.progress import Progress
+from skelfilter.runtime.progress import Progress
 
 DATA = os.path.join(os.path.dirname(__file__), "data")
 FANDISK = os.path.join(os.path.dirname(__file__), "..", "benchmarks", "data", "literature", "Fandisk0.3")
@@ -93,7 +88,7 @@ def test_schedule_is_monotone_in_the_noise():
 
 
 def test_literature_scores_of_the_noisy_pair_match_the_published_ones():
-    noisy, clean = (io.load_mesh(os.path.join(FANDISK, f)) for f in ("noisy.obj", "clean.obj"))
+    noisy, clean = (mesh_files.load_mesh(os.path.join(FANDISK, f)) for f in ("noisy.obj", "clean.obj"))
     angle, e_v = metrics.literature_errors(noisy, clean)
     assert angle == pytest.approx(29.3, abs=0.1) and e_v == pytest.approx(0.31, abs=0.005)
 
@@ -101,7 +96,7 @@ def test_literature_scores_of_the_noisy_pair_match_the_published_ones():
 def test_literature_pair_default_beats_taubin():
     """Fandisk0.3 with no flags: below MeshLab Taubin (9.08 deg / 0.120, measured by
     benchmarks/literature.py) and pygel3d's anisotropic smoothing (7.7 deg / 0.11) on both scores."""
-    noisy, clean = (io.load_mesh(os.path.join(FANDISK, f)) for f in ("noisy.obj", "clean.obj"))
+    noisy, clean = (mesh_files.load_mesh(os.path.join(FANDISK, f)) for f in ("noisy.obj", "clean.obj"))
     out = mesh_pipeline.denoise_mesh(noisy)
     assert np.array_equal(out.faces, noisy.faces)
     angle, e_v = metrics.literature_errors(out, clean)
@@ -113,7 +108,7 @@ def test_literature_pair_default_beats_taubin():
 
 
 def test_open_scan_stays_open_and_on_its_surface():
-    scan = io.load_mesh(SCAN)
+    scan = mesh_files.load_mesh(SCAN)
     progress = Progress(enabled=False)
     out, result, grid = mesh_pipeline.denoise_mesh_detailed(scan, progress=progress)
     assert any("the input mesh comes back" in n for n in progress.notes)
@@ -127,7 +122,7 @@ def test_open_scan_stays_open_and_on_its_surface():
 
 
 def test_solid_share_tells_open_from_closed():
-    scan = io.load_mesh(SCAN)
+    scan = mesh_files.load_mesh(SCAN)
     grid = voxelize.grid_for_bounds(scan.bounds, 96, 8)
     assert output_choice.solid_share(voxelize.voxelize_on_grid(scan, grid), scan, grid) < 0.9
     sphere = trimesh.creation.icosphere(4)
@@ -182,7 +177,7 @@ def test_vertex_colours_and_uvs_come_through_the_cli(tmp_path):
         done = subprocess.run([sys.executable, "-m", "skelfilter.cli", "denoise", str(tmp_path / name),
                                str(out_path)], capture_output=True, text=True, timeout=600)
         assert done.returncode == 0, done.stderr
-        before, after = io.load_mesh(tmp_path / name), io.load_mesh(out_path)
+        before, after = mesh_files.load_mesh(tmp_path / name), mesh_files.load_mesh(out_path)
         assert np.array_equal(before.faces, after.faces)
         assert not np.allclose(before.vertices, after.vertices)
         if name.endswith(".ply"):
@@ -219,7 +214,7 @@ def test_clean_open_surface_skips_the_voxel_stage():
 
 
 def test_meshset_keeps_the_layer_colours():
-    from skelfilter import meshset
+    from skelfilter.meshlab import meshset
 
     noisy, _ = noisy_sphere()
     noisy.visual.vertex_colors = np.random.default_rng(2).integers(0, 255, (len(noisy.vertices), 4), dtype=np.uint8)

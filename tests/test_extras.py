@@ -7,8 +7,8 @@ import tomllib
 
 import pytest
 
-from skelfilter import extras
-from skelfilter.extras import EXTRA_OF, MissingExtra, need
+from skelfilter.runtime import extras
+from skelfilter.runtime.extras import EXTRA_OF, MissingExtra, need
 
 ROOT = os.path.join(os.path.dirname(__file__), "..")
 # The module each optional distribution installs.
@@ -83,9 +83,9 @@ def test_the_cli_refuses_a_missing_extra_in_one_line(tmp_path, argv, blocked, ex
 
 
 def test_library_messages_name_parameters_and_the_cli_its_flags():
-    from skelfilter.cli import _in_cli_terms
+    from skelfilter.cli.commands import _in_cli_terms
     from skelfilter.errors import ResourceError
-    from skelfilter.memory import check_grid_fits
+    from skelfilter.runtime.memory import check_grid_fits
 
     with pytest.raises(ResourceError, match=r"lower `resolution`$") as refused:
         check_grid_fits((4096, 4096, 4096), available=2**30)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from skelfilter import feature_restore, noise_estimate
+from skelfilter.core import feature_restore, noise_estimate
 
 
 def _brute_height(part, base):

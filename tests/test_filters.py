@@ -12,14 +12,16 @@ import pymeshlab
 import pytest
 import trimesh
 
-from skelfilter import cli, filters, mesh_pipeline, meshlab, meshset, mlx
+from skelfilter.cli import commands
 from skelfilter.errors import ParameterError
-from skelfilter.filters import ADD_SKELETON_NOISE, FILTERS, SKELETON_SALIENCY_DENOISE
+from skelfilter.mesh import pipeline as mesh_pipeline
+from skelfilter.meshlab import descriptions, meshset, mlx, scripts
+from skelfilter.meshlab.descriptions import ADD_SKELETON_NOISE, FILTERS, SKELETON_SALIENCY_DENOISE
 from skelfilter.params import DenoiseParams, NoiseParams
 
 ROOT = os.path.join(os.path.dirname(__file__), "..")
 SCRIPTS = os.path.join(ROOT, "meshlab_scripts")
-BASELINES = os.path.join(ROOT, "skelfilter", "comparison", "scripts")
+BASELINES = os.path.join(ROOT, "skelfilter", "evaluation", "comparison", "scripts")
 
 
 def make_scripts():
@@ -46,8 +48,8 @@ def test_descriptions_are_read_off_the_dataclasses():
     assert d["padding"].optional and d["padding"].meshlab_default == 0
     n = {p.name: p for p in ADD_SKELETON_NOISE.parameters}
     assert (n["dents"].rich_type, n["h"].rich_type, n["p"].rich_type) == ("RichBool", "RichInt", "RichFloat")
-    assert filters.find("Skeleton Saliency Denoise") is filters.find("apply_skeleton_saliency_denoise") \
-        is filters.find("denoise") is SKELETON_SALIENCY_DENOISE
+    assert descriptions.find("Skeleton Saliency Denoise") is descriptions.find("apply_skeleton_saliency_denoise") \
+        is descriptions.find("denoise") is SKELETON_SALIENCY_DENOISE
 
 
 @pytest.mark.parametrize("description", FILTERS, ids=lambda d: d.command)
@@ -75,7 +77,7 @@ def _flags(parser):
 
 
 def test_cli_flags_and_meshset_signatures_come_from_the_descriptions():
-    parser = cli.build_parser()
+    parser = commands.build_parser()
     sub = next(a for a in parser._actions if a.dest == "command").choices
     export = next(a for a in sub["export-script"]._actions if a.dest == "filter").choices
     for d in FILTERS:
@@ -94,8 +96,8 @@ def test_export_then_read_gives_the_parameters_back(tmp_path):
     params = DenoiseParams(resolution=96, threshold_relative=0.05, stages="background", importance="estimate",
                            geodesic_cap=40.0, k=0.75)
     path = tmp_path / "d.mlx"
-    meshlab.export_script(path, SKELETON_SALIENCY_DENOISE, params)
-    (name, values), = meshlab.read_filter_script(path)
+    scripts.export_script(path, SKELETON_SALIENCY_DENOISE, params)
+    (name, values), = scripts.read_filter_script(path)
     assert name == "apply_skeleton_saliency_denoise" and DenoiseParams(**values) == params
     # the CLI writes the same file from the same flags
     r = subprocess.run([sys.executable, "-m", "skelfilter.cli", "export-script", "denoise",
@@ -106,17 +108,17 @@ def test_export_then_read_gives_the_parameters_back(tmp_path):
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "c.mlx").read_text() == path.read_text()
     noise = NoiseParams(p=0.02, l=1, dents=True, seed=5)
-    meshlab.export_script(tmp_path / "n.mlx", ADD_SKELETON_NOISE, noise)
-    (name, values), = meshlab.read_filter_script(tmp_path / "n.mlx")
+    scripts.export_script(tmp_path / "n.mlx", ADD_SKELETON_NOISE, noise)
+    (name, values), = scripts.read_filter_script(tmp_path / "n.mlx")
     assert name == "apply_skeleton_noise" and NoiseParams(**values) == noise
 
 
 def test_docs_are_generated_from_the_descriptions():
     with open(os.path.join(ROOT, "docs", "filters.md"), encoding="utf-8") as f:
-        assert f.read() == filters.markdown(), "docs/filters.md is stale: run `make docs`"
+        assert f.read() == descriptions.markdown(), "docs/filters.md is stale: run `make docs`"
     for d in FILTERS:
         for p in d.parameters:
-            assert f"| `{p.name}` | {p.rich_type}" in filters.markdown()
+            assert f"| `{p.name}` | {p.rich_type}" in descriptions.markdown()
 
 
 def test_filters_command_lists_ours_and_meshlabs():
@@ -124,7 +126,7 @@ def test_filters_command_lists_ours_and_meshlabs():
                        capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     for d in FILTERS:
-        assert filters.text(d) in r.stdout
+        assert descriptions.text(d) in r.stdout
     assert "apply_coord_taubin_smoothing (pymeshlab)\n  lambda_: float = 0.5\n  mu: float = -0.53" in r.stdout
     assert r.stdout.count("(pymeshlab)") == len(pymeshlab.filter_list())
 
@@ -145,7 +147,7 @@ def test_shipped_scripts_are_what_the_generator_writes(tmp_path):
             assert [(e.name, [p.attrs for p in e.params]) for e in mlx.parse(shipped, name)] == [
                 (e.name, [p.attrs for p in e.params]) for e in mlx.parse(new, name)]
     assert gen.skeleton_denoise_text() == (tmp_path / "skeleton_denoise.mlx").read_text()
-    names = [n for n, _ in meshlab.read_filter_script(os.path.join(SCRIPTS, "mixed_example.mlx"))]
+    names = [n for n, _ in scripts.read_filter_script(os.path.join(SCRIPTS, "mixed_example.mlx"))]
     assert names == ["meshing_remove_duplicate_vertices", "meshing_remove_unreferenced_vertices",
                      "apply_skeleton_saliency_denoise", "apply_coord_taubin_smoothing"]
 

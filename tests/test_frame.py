@@ -1,5 +1,5 @@
 """Scale and position do not matter: a mesh scaled by 1e-9 ... 1e9 or moved far from the origin gives
-the same result up to that scale and shift (skelfilter.frame), and files keep tiny meshes whole."""
+the same result up to that scale and shift (skelfilter.mesh.frame), and files keep tiny meshes whole."""
 
 from pathlib import Path
 
@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 import trimesh
 
-from skelfilter import io, mesh_pipeline
 from skelfilter.errors import InputError
-from skelfilter.frame import Frame
+from skelfilter.io import mesh_files
+from skelfilter.mesh import pipeline as mesh_pipeline
+from skelfilter.mesh.frame import Frame
 
 DATA = Path(__file__).parent / "data"
 FANDISK = Path(__file__).parent.parent / "skelfilter" / "data" / "fandisk.obj"
@@ -22,7 +23,7 @@ def fandisk():
 
 @pytest.fixture(scope="module")
 def scan():
-    return io.load_mesh(DATA / "range-scan-bunny.ply")
+    return mesh_files.load_mesh(DATA / "range-scan-bunny.ply")
 
 
 def _moved(mesh, scale, shift):
@@ -68,18 +69,18 @@ def test_tiny_box_survives_denoising_and_every_text_format(tmp_path):
     assert out.is_watertight and out.volume == pytest.approx(1e-24, rel=0.05)
     assert np.ptp(out.vertices, axis=0) == pytest.approx([1e-8] * 3, rel=0.05)
     for ext in ("ply", "obj", "off", "stl"):
-        io.save_mesh(tiny, tmp_path / f"tiny.{ext}")
-        back = io.load_mesh(tmp_path / f"tiny.{ext}")
+        mesh_files.save_mesh(tiny, tmp_path / f"tiny.{ext}")
+        back = mesh_files.load_mesh(tmp_path / f"tiny.{ext}")
         assert np.allclose(np.unique(back.vertices, axis=0), np.unique(tiny.vertices, axis=0), rtol=1e-6, atol=0)
 
 
 def test_single_precision_formats_refuse_a_small_far_mesh(tmp_path):
     far = _moved(trimesh.creation.box(), 1e-3, 1e9)
     with pytest.raises(InputError, match="single precision"):
-        io.save_mesh(far, tmp_path / "far.stl")
+        mesh_files.save_mesh(far, tmp_path / "far.stl")
     assert list(tmp_path.iterdir()) == []
-    io.save_mesh(far, tmp_path / "far.ply")
-    assert np.array_equal(io.load_mesh(tmp_path / "far.ply").vertices, far.vertices)
+    mesh_files.save_mesh(far, tmp_path / "far.ply")
+    assert np.array_equal(mesh_files.load_mesh(tmp_path / "far.ply").vertices, far.vertices)
 
 
 def test_frame_is_a_power_of_two_around_the_bounding_box():

@@ -9,13 +9,8 @@ from scipy import ndimage, sparse
 from scipy.sparse import csgraph
 from scipy.spatial import cKDTree
 
+from skelfilter.core.importance import boundary_layer, euclidean_importance, geodesic_estimate, geodesic_importance
 from skelfilter.errors import ParameterError
-from skelfilter.importance import (
-    boundary_layer,
-    euclidean_importance,
-    geodesic_estimate,
-    geodesic_importance,
-)
 
 
 def _coords(n):

@@ -14,7 +14,7 @@ import pytest
 import trimesh
 
 import harness
-from skelfilter import mesh_pipeline
+from skelfilter.mesh import pipeline as mesh_pipeline
 
 HARNESS = harness.__file__
 

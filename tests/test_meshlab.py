@@ -1,4 +1,4 @@
-"""MeshLab baseline scripts (skelfilter/comparison/scripts/*.mlx) and the crash-safe pymeshlab runner."""
+"""MeshLab baseline scripts (skelfilter/evaluation/comparison/scripts/*.mlx) and the crash-safe pymeshlab runner."""
 
 import os
 
@@ -8,9 +8,9 @@ import pytest
 import trimesh
 
 from skelfilter.errors import InputError, SkelfilterError
-from skelfilter.meshlab import read_filter_script, run_filter_script
+from skelfilter.meshlab.scripts import read_filter_script, run_filter_script
 
-SCRIPTS = os.path.join(os.path.dirname(__file__), "..", "skelfilter", "comparison", "scripts")
+SCRIPTS = os.path.join(os.path.dirname(__file__), "..", "skelfilter", "evaluation", "comparison", "scripts")
 
 
 def script(name):

@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 import trimesh
 
-from skelfilter import metrics as M
+from skelfilter.core.noise import add_noise
 from skelfilter.errors import InputError, ParameterError
-from skelfilter.noise import add_noise
-from skelfilter.surface import mask_to_mesh
-from skelfilter.voxelize import Grid
+from skelfilter.evaluation import metrics
+from skelfilter.mesh.marching_cubes import mask_to_mesh
+from skelfilter.mesh.voxelize import Grid
 
 N = 20_000  # surface samples: enough for ~1% on the analytic values, quick
 PITCH = 0.05
@@ -26,19 +26,19 @@ def unit_cube():
 def test_skeleton_errors_on_hand_built_sets():
     s = np.array([0, 1, 2, 3])
     sv = np.array([5, 4, 3, 2, 2])  # unsorted, repeated: a set all the same
-    assert M.skeleton_error(sv, s) == pytest.approx(1 - 2 / 6)  # eq. 4.17
-    assert M.skeleton_false_positive_rate(sv, s) == pytest.approx(2 / 4)  # eq. 4.18
-    assert M.skeleton_error(s, s) == 0 and M.skeleton_false_positive_rate(s, s) == 0
+    assert metrics.skeleton_error(sv, s) == pytest.approx(1 - 2 / 6)  # eq. 4.17
+    assert metrics.skeleton_false_positive_rate(sv, s) == pytest.approx(2 / 4)  # eq. 4.18
+    assert metrics.skeleton_error(s, s) == 0 and metrics.skeleton_false_positive_rate(s, s) == 0
     # Boolean volumes give the same answers as flat indices (C order).
     vs, vsv = np.zeros((2, 2, 2), bool), np.zeros((2, 2, 2), bool)
     vs.reshape(-1)[s] = True
     vsv.reshape(-1)[sv] = True
-    assert M.skeleton_error(vsv, s) == pytest.approx(2 / 3)
-    assert M.skeleton_false_positive_rate(vsv, vs) == pytest.approx(0.5)
-    assert math.isnan(M.skeleton_error([], []))
-    assert math.isnan(M.skeleton_false_positive_rate(np.array([], np.int64), s))
+    assert metrics.skeleton_error(vsv, s) == pytest.approx(2 / 3)
+    assert metrics.skeleton_false_positive_rate(vsv, vs) == pytest.approx(0.5)
+    assert math.isnan(metrics.skeleton_error([], []))
+    assert math.isnan(metrics.skeleton_false_positive_rate(np.array([], np.int64), s))
     with pytest.raises(ParameterError):
-        M.skeleton_error(np.array([0.5]), s)
+        metrics.skeleton_error(np.array([0.5]), s)
 
 
 def test_reconstruction_error_uses_the_union_with_the_reconstruction():
@@ -46,19 +46,19 @@ def test_reconstruction_error_uses_the_union_with_the_reconstruction():
     x[:2] = True  # 32 voxels
     r = np.zeros_like(x)
     r[1:3] = True  # 32 voxels, 16 shared
-    assert M.reconstruction_error(r, x) == pytest.approx(1 - 16 / 48)  # eq. 6.5, corrected
-    assert M.reconstruction_error(x, x) == 0
+    assert metrics.reconstruction_error(r, x) == pytest.approx(1 - 16 / 48)  # eq. 6.5, corrected
+    assert metrics.reconstruction_error(x, x) == 0
 
 
 def test_geodesic_errors_eq_7_23_7_24():
-    eps, m = M.geodesic_errors([1.0, 2.0, 4.0], [1.1, 2.0, 2.0])  # relative errors 0.1, 0, 0.5
+    eps, m = metrics.geodesic_errors([1.0, 2.0, 4.0], [1.1, 2.0, 2.0])  # relative errors 0.1, 0, 0.5
     assert eps == pytest.approx(0.2) and m == pytest.approx(0.5)
-    assert M.geodesic_errors([3.0], [3.0]) == (0.0, 0.0)
-    assert all(math.isnan(v) for v in M.geodesic_errors([], []))
+    assert metrics.geodesic_errors([3.0], [3.0]) == (0.0, 0.0)
+    assert all(math.isnan(v) for v in metrics.geodesic_errors([], []))
     with pytest.raises(ParameterError):
-        M.geodesic_errors([1.0, 0.0], [1.0, 1.0])
+        metrics.geodesic_errors([1.0, 0.0], [1.0, 1.0])
     with pytest.raises(ParameterError):
-        M.geodesic_errors([1.0, 2.0], [1.0])
+        metrics.geodesic_errors([1.0, 2.0], [1.0])
 
 
 # ---- surface distances -----------------------------------------------------
@@ -72,41 +72,41 @@ def test_chamfer_and_hausdorff_of_a_translated_cube():
     # E[min(0.1, distance to the square's border)] = (1 - 0.8^3) / 6; four side faces
     # -> 0.1^2 / 2 each; over the six unit faces. Symmetric, so Chamfer is the same.
     directed = (0.1 + (1 - 0.8**3) / 6 + 4 * 0.005) / 6
-    assert M.chamfer_distance(a, b, GRID, n_samples=N) == pytest.approx(directed / PITCH, rel=0.03)
+    assert metrics.chamfer_distance(a, b, GRID, n_samples=N) == pytest.approx(directed / PITCH, rel=0.03)
     # 27% of each surface is exactly 0.1 away: both the 95th percentile and the max are 0.1.
-    h95, hmax = M.hausdorff_distance(a, b, GRID, n_samples=N)
+    h95, hmax = metrics.hausdorff_distance(a, b, GRID, n_samples=N)
     assert h95 == pytest.approx(0.1 / PITCH, abs=1e-6) and hmax == pytest.approx(0.1 / PITCH, abs=1e-6)
 
 
 def test_distances_of_a_mesh_to_itself_are_zero():
     a = unit_cube()
     # open3d works in float32: a millionth of a voxel is its rounding
-    assert M.chamfer_distance(a, a, GRID, n_samples=N) < 1e-5
-    assert M.hausdorff_distance(a, a, GRID, n_samples=N)[1] < 1e-5
+    assert metrics.chamfer_distance(a, a, GRID, n_samples=N) < 1e-5
+    assert metrics.hausdorff_distance(a, a, GRID, n_samples=N)[1] < 1e-5
     sphere = trimesh.creation.icosphere(3)
-    assert M.chamfer_distance(sphere, sphere, GRID, n_samples=N) < 1e-3
-    assert M.hausdorff_distance(sphere, sphere, GRID, n_samples=N)[1] < 0.1
+    assert metrics.chamfer_distance(sphere, sphere, GRID, n_samples=N) < 1e-3
+    assert metrics.hausdorff_distance(sphere, sphere, GRID, n_samples=N)[1] < 0.1
 
 
 def test_normal_error_zero_for_identical_and_known_for_rotated():
     a = unit_cube()
-    assert M.normal_error(a, a) == pytest.approx(0, abs=1e-6)
+    assert metrics.normal_error(a, a) == pytest.approx(0, abs=1e-6)
     r = a.copy()
     r.apply_transform(trimesh.transformations.rotation_matrix(np.radians(10), [0, 0, 1], [0.5, 0.5, 0.5]))
     # The four side faces turn by 10 degrees, top and bottom not: 4 * 10 / 6 on equal areas.
-    assert M.normal_error(r, a) == pytest.approx(40 / 6, abs=1e-6)
+    assert metrics.normal_error(r, a) == pytest.approx(40 / 6, abs=1e-6)
 
 
 def test_sharp_edge_error_zero_for_the_cube_positive_when_smoothed():
     a = unit_cube()
-    mean, mx, n = M.sharp_edge_error(a, a, GRID)
+    mean, mx, n = metrics.sharp_edge_error(a, a, GRID)
     assert n == 12 and mean < 1e-5 and mx < 1e-5
     smooth = a.subdivide().subdivide().subdivide().subdivide()
     trimesh.smoothing.filter_laplacian(smooth, iterations=10)
-    mean, mx, _ = M.sharp_edge_error(smooth, a, GRID)
+    mean, mx, _ = metrics.sharp_edge_error(smooth, a, GRID)
     assert mean > 0.1 and mx > mean  # corners and edges rounded by more than a tenth of a voxel
     flat = trimesh.creation.icosphere(3)
-    assert M.sharp_edge_error(flat, flat, GRID)[2] == 0  # no edge above 30 degrees
+    assert metrics.sharp_edge_error(flat, flat, GRID)[2] == 0  # no edge above 30 degrees
 
 
 # ---- volumes, noise, topology ----------------------------------------------
@@ -114,8 +114,8 @@ def test_sharp_edge_error_zero_for_the_cube_positive_when_smoothed():
 
 def test_iou_of_a_box_and_its_half():
     half = trimesh.creation.box(bounds=[[0, 0, 0], [0.5, 1, 1]])
-    assert M.volumetric_iou(half, unit_cube(), GRID) == pytest.approx(0.5)
-    assert M.volumetric_iou(unit_cube(), unit_cube(), GRID) == 1.0
+    assert metrics.volumetric_iou(half, unit_cube(), GRID) == pytest.approx(0.5)
+    assert metrics.volumetric_iou(unit_cube(), unit_cube(), GRID) == 1.0
 
 
 @pytest.fixture(scope="module")
@@ -130,52 +130,53 @@ def noisy_box():
 def test_noise_removed_and_shrinkage(noisy_box):
     noise, grid, clean, noisy = noisy_box
     assert noise.bumps.any() and noise.dents.any()
-    assert M.noise_removed(clean, noise, grid) == {"noise_removed": 1.0, "bumps_removed": 1.0, "dents_removed": 1.0}
-    kept = M.noise_removed(noisy, noise, grid)
+    assert metrics.noise_removed(clean, noise, grid) == {
+        "noise_removed": 1.0, "bumps_removed": 1.0, "dents_removed": 1.0}
+    kept = metrics.noise_removed(noisy, noise, grid)
     assert kept["noise_removed"] < 0.05 and kept["bumps_removed"] < 0.05 and kept["dents_removed"] < 0.05
-    assert M.shrinkage(clean, clean, grid, noise) == 0.0
-    assert M.shrinkage(noisy, clean, grid, noise) == 0.0  # noise leaves the far volume alone
+    assert metrics.shrinkage(clean, clean, grid, noise) == 0.0
+    assert metrics.shrinkage(noisy, clean, grid, noise) == 0.0  # noise leaves the far volume alone
     # A result missing the top half loses about half the volume far from the noise.
-    s = M.shrinkage(trimesh.creation.box(bounds=[[14.5] * 3, [44.5, 44.5, 29.5]]), clean, grid, noise)
+    s = metrics.shrinkage(trimesh.creation.box(bounds=[[14.5] * 3, [44.5, 44.5, 29.5]]), clean, grid, noise)
     assert 0.3 < s < 0.7
-    assert M.shrinkage(clean, clean, grid) == 0.0
+    assert metrics.shrinkage(clean, clean, grid) == 0.0
 
 
 def test_edge_manifold_and_watertight_flags():
     box = unit_cube()
-    assert box.is_watertight and M.is_edge_manifold(box)
+    assert box.is_watertight and metrics.is_edge_manifold(box)
     open_box = trimesh.Trimesh(box.vertices, box.faces[1:], process=False)
-    assert not open_box.is_watertight and M.is_edge_manifold(open_box)
+    assert not open_box.is_watertight and metrics.is_edge_manifold(open_box)
     # Three triangles on one edge: not edge-manifold.
     v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1]], float)
     tri = trimesh.Trimesh(v, [[0, 1, 2], [1, 0, 3], [0, 1, 4]], process=False)
-    assert not M.is_edge_manifold(tri)
-    m = M.mesh_metrics(open_box, box, GRID, n_samples=N)
+    assert not metrics.is_edge_manifold(tri)
+    m = metrics.mesh_metrics(open_box, box, GRID, n_samples=N)
     assert m["watertight"] is False and m["edge_manifold"] is True and m["faces"] == 11
 
 
 def test_mesh_metrics_of_the_clean_and_the_noisy_mesh(noisy_box):
     noise, grid, clean, noisy = noisy_box
-    same = M.mesh_metrics(clean, clean, grid, noise=noise, n_samples=N)
+    same = metrics.mesh_metrics(clean, clean, grid, noise=noise, n_samples=N)
     assert same["chamfer"] < 1e-4 and same["hausdorff_95"] < 1e-4 and same["hausdorff_max"] < 1e-4
     assert same["normal_error_deg"] < 1e-3 and same["iou"] == 1.0 and same["shrinkage"] == 0.0
     assert same["noise_removed"] == 1.0 and same["sharp_edges"] > 0 and same["sharp_edge_max"] < 1e-6
     assert same["watertight"] and same["edge_manifold"] and same["faces"] == len(clean.faces)
-    worse = M.mesh_metrics(noisy, clean, grid, noise=noise, n_samples=N)
+    worse = metrics.mesh_metrics(noisy, clean, grid, noise=noise, n_samples=N)
     assert worse["chamfer"] > 0.5 and worse["hausdorff_max"] > 3 and worse["iou"] < 1
     assert worse["noise_removed"] < 0.05 and worse["sharp_edge_mean"] > 0
-    assert "noise_removed" not in M.mesh_metrics(clean, clean, grid, n_samples=N)
+    assert "noise_removed" not in metrics.mesh_metrics(clean, clean, grid, n_samples=N)
 
 
 def test_nan_and_empty_results_give_an_error_entry():
     box = unit_cube()
     nan = box.copy()
     nan.vertices[0] = np.nan
-    out = M.mesh_metrics(nan, box, GRID)
+    out = metrics.mesh_metrics(nan, box, GRID)
     assert "non-finite" in out["error"] and out["faces"] == 12
-    out = M.mesh_metrics(trimesh.Trimesh(), box, GRID)
+    out = metrics.mesh_metrics(trimesh.Trimesh(), box, GRID)
     assert "no faces" in out["error"] and out["faces"] == 0
     flat = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [2, 0, 0]], [[0, 1, 2]], process=False)
-    assert "area" in M.mesh_metrics(flat, box, GRID)["error"]
+    assert "area" in metrics.mesh_metrics(flat, box, GRID)["error"]
     with pytest.raises(InputError):
-        M.mesh_metrics(box, trimesh.Trimesh(), GRID)
+        metrics.mesh_metrics(box, trimesh.Trimesh(), GRID)

@@ -2,8 +2,8 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
+from skelfilter.core.noise import NoiseResult, add_noise
 from skelfilter.errors import InputError, ParameterError
-from skelfilter.noise import NoiseResult, add_noise
 
 H, R = 3, 2.1
 CUBE = np.ones((3, 3, 3), bool)

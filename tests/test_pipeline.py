@@ -5,12 +5,12 @@ import pytest
 from conftest import cube_volume
 
 from skelfilter import add_noise, denoise_volume
-from skelfilter.distance import distance_and_features
-from skelfilter.pipeline import resolve_params, saliency_stage
-from skelfilter.progress import Progress
-from skelfilter.reconstruct import reconstruction, reverse_edt
-from skelfilter.skeleton import ie_skeleton
-from skelfilter.surface import SURFACE_OFFSET
+from skelfilter.core.distance import distance_and_features
+from skelfilter.core.pipeline import resolve_params, saliency_stage
+from skelfilter.core.reconstruct import reconstruction, reverse_edt
+from skelfilter.core.skeleton import ie_skeleton
+from skelfilter.core.surface_field import SURFACE_OFFSET
+from skelfilter.runtime.progress import Progress
 
 
 @pytest.fixture(scope="module")

@@ -6,8 +6,12 @@ import pytest
 import trimesh
 from scipy.spatial import cKDTree
 
-from skelfilter import files, io, mesh_pipeline, point_cloud
 from skelfilter.errors import InputError
+from skelfilter.io import mesh_files
+from skelfilter.io.samples import sample_path
+from skelfilter.jobs import denoise_file
+from skelfilter.mesh import pipeline as mesh_pipeline
+from skelfilter.mesh import point_cloud
 from skelfilter.params import DenoiseParams, NoiseParams
 
 RESOLUTION = 96
@@ -17,7 +21,7 @@ RESOLUTION = 96
 def bumpy(tmp_path_factory):
     """Fandisk with the thesis' stripes, its grid, and 60000 points sampled on it (no normals) with an
     'intensity' attribute, in a PLY file."""
-    clean = io.load_mesh(files.os.path.join(files.os.path.dirname(io.__file__), "data", "fandisk.obj"))
+    clean = mesh_files.load_mesh(sample_path("fandisk"))
     noisy, _, grid = mesh_pipeline.noisy_mesh(clean, NoiseParams(resolution=RESOLUTION, seed=2))
     points, _ = trimesh.sample.sample_surface_even(noisy, 60000, seed=1)
     cloud = o3d.t.geometry.PointCloud(o3d.core.Tensor(points.astype(np.float32)))
@@ -34,10 +38,10 @@ def chamfer(a, b):
 
 def test_a_cloud_gives_the_mesh_routes_result(bumpy, tmp_path):
     noisy, grid, path = bumpy
-    assert files.input_kind(path) == "points"
+    assert denoise_file.input_kind(path) == "points"
     params = DenoiseParams(resolution=RESOLUTION, keep_features="off")  # the route, not the noise decision, is tested
-    files.denoise_file(path, tmp_path / "out.ply", params)
-    out = io.load_mesh(tmp_path / "out.ply")
+    denoise_file.denoise_file(path, tmp_path / "out.ply", params)
+    out = mesh_files.load_mesh(tmp_path / "out.ply")
     from_mesh = mesh_pipeline.denoise_mesh(noisy, params.with_(output_mesh="closed"))
     assert out.is_watertight and out.volume > 0
     assert chamfer(out, from_mesh) < grid.pitch  # within a voxel of the mesh route
@@ -46,11 +50,11 @@ def test_a_cloud_gives_the_mesh_routes_result(bumpy, tmp_path):
 
 def test_points_moved_onto_the_surface_keep_their_attributes(bumpy, tmp_path):
     _, grid, path = bumpy
-    files.denoise_file(path, tmp_path / "moved.ply", DenoiseParams(resolution=RESOLUTION), points=True)
-    files.denoise_file(path, tmp_path / "mesh.ply", DenoiseParams(resolution=RESOLUTION))
+    denoise_file.denoise_file(path, tmp_path / "moved.ply", DenoiseParams(resolution=RESOLUTION), points=True)
+    denoise_file.denoise_file(path, tmp_path / "mesh.ply", DenoiseParams(resolution=RESOLUTION))
     before, after = o3d.t.io.read_point_cloud(str(path)), o3d.t.io.read_point_cloud(str(tmp_path / "moved.ply"))
     assert np.array_equal(after.point.intensity.numpy(), before.point.intensity.numpy())
-    mesh = io.load_mesh(tmp_path / "mesh.ply")
+    mesh = mesh_files.load_mesh(tmp_path / "mesh.ply")
     scene = o3d.t.geometry.RaycastingScene()
     scene.add_triangles(o3d.core.Tensor(mesh.vertices.astype(np.float32)),
                         o3d.core.Tensor(mesh.faces.astype(np.uint32)))
@@ -68,12 +72,12 @@ def test_clouds_that_make_no_solid_are_refused(tmp_path, points, message):
     o3d.t.io.write_point_cloud(str(tmp_path / "c.pcd"), o3d.t.geometry.PointCloud(
         o3d.core.Tensor(points.astype(np.float32))))
     with pytest.raises(InputError, match=message):
-        files.denoise_file(tmp_path / "c.pcd", tmp_path / "o.ply", DenoiseParams(resolution=32))
+        denoise_file.denoise_file(tmp_path / "c.pcd", tmp_path / "o.ply", DenoiseParams(resolution=32))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.pcd"]
 
 
 def test_moved_points_need_a_cloud(tmp_path):
     trimesh.creation.box().export(tmp_path / "cube.ply")
     with pytest.raises(InputError, match="moved points need a point cloud input"):
-        files.denoise_file(tmp_path / "cube.ply", tmp_path / "o.ply", DenoiseParams(), points=True)
+        denoise_file.denoise_file(tmp_path / "cube.ply", tmp_path / "o.ply", DenoiseParams(), points=True)
     assert point_cloud.is_point_cloud(tmp_path / "cube.ply") is False

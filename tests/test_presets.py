@@ -9,8 +9,8 @@ from conftest import load
 
 from skelfilter import add_noise, denoise_volume
 from skelfilter.errors import ParameterError
+from skelfilter.mesh.voxelize import voxelize
 from skelfilter.params import DenoiseParams
-from skelfilter.voxelize import voxelize
 
 
 def test_presets_fill_only_the_unset_fields():
@@ -80,7 +80,7 @@ def test_default_passes_a_clean_cube_through():
 
 
 def test_thin_part_rule_against_brute_force():
-    from skelfilter.saliency import thin_part
+    from skelfilter.core.saliency import thin_part
 
     rng = np.random.default_rng(0)
     shape = (20, 20, 20)

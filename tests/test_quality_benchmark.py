@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from skelfilter import metrics
+from skelfilter.evaluation import metrics
+from skelfilter.mesh.voxelize import voxelize
 from skelfilter.params import DenoiseParams
-from skelfilter.voxelize import voxelize
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "benchmarks"))
 import quality  # noqa: E402

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from scipy import ndimage as ndi
 
+from skelfilter.core.reconstruct import reconstruction, reverse_edt, signed_distance
 from skelfilter.errors import ParameterError
-from skelfilter.reconstruct import reconstruction, reverse_edt, signed_distance
 
 
 def _brute(shape, centres, radii):

@@ -10,13 +10,15 @@ import pymeshlab
 import pytest
 import trimesh
 
-from skelfilter import io, mesh_pipeline, meshlab, mlx
 from skelfilter.errors import InputError
-from skelfilter.filters import SKELETON_SALIENCY_DENOISE
+from skelfilter.io import mesh_files
+from skelfilter.mesh import pipeline as mesh_pipeline
+from skelfilter.meshlab import mlx, scripts
+from skelfilter.meshlab.descriptions import SKELETON_SALIENCY_DENOISE
 from skelfilter.params import DenoiseParams, NoiseParams
 
 SCRIPTS = os.path.join(os.path.dirname(__file__), "..", "meshlab_scripts")
-BASELINES = os.path.join(os.path.dirname(__file__), "..", "skelfilter", "comparison", "scripts")
+BASELINES = os.path.join(os.path.dirname(__file__), "..", "skelfilter", "evaluation", "comparison", "scripts")
 HEAD = "<!DOCTYPE FilterScript>\n<FilterScript>\n"
 TAIL = "</FilterScript>\n"
 
@@ -64,10 +66,10 @@ def test_pymeshlab_saved_script_gives_what_pymeshlab_gives(noisy_file, tmp_path)
     direct.save_filter_script(str(script))
     expected = direct.current_mesh()
     # in Python: the float64 vertices pymeshlab computes, bit for bit, in pymeshlab's order
-    out = meshlab.run_filter_script(io.load_mesh(noisy_file), script)
+    out = scripts.run_filter_script(mesh_files.load_mesh(noisy_file), script)
     assert np.array_equal(out.vertices, expected.vertex_matrix())
     assert np.array_equal(out.faces, expected.face_matrix())
-    assert not np.allclose(out.vertices, io.load_mesh(noisy_file).vertices)  # the filters did something
+    assert not np.allclose(out.vertices, mesh_files.load_mesh(noisy_file).vertices)  # the filters did something
     # from the command line: the same file as pymeshlab's own script runner writes
     r = run_cli("run-script", script, noisy_file, tmp_path / "out.ply")
     assert r.returncode == 0, r.stderr
@@ -87,9 +89,9 @@ def test_layers_behave_as_in_meshlab(noisy_file, tmp_path):
     taubin = mlx.FilterElement("Taubin Smooth", 0, [
         mlx.ParamElement({"name": "stepSmoothNum", "type": "RichInt", "value": "3"}, 0)])
     script.write_text(mlx.script_text([mlx.FilterElement("Duplicate Current layer", 0), taubin,
-                                       meshlab.filter_element(SKELETON_SALIENCY_DENOISE, params)]))
-    mesh = io.load_mesh(noisy_file)
-    layers = meshlab.run_steps(meshlab.read_script(script), mesh)
+                                       scripts.filter_element(SKELETON_SALIENCY_DENOISE, params)]))
+    mesh = mesh_files.load_mesh(noisy_file)
+    layers = scripts.run_steps(scripts.read_script(script), mesh)
     # the copy became current and was smoothed; the original layer 0 is untouched
     assert (len(layers.meshes), layers.current) == (3, 2)
     assert np.array_equal(layers.meshes[0].vertices, mesh.vertices)
@@ -124,8 +126,8 @@ def test_mixed_example_is_cleanup_denoise_smoothing(noisy_file, tmp_path):
     params = DenoiseParams(resolution=48)
     script = tmp_path / "mixed.mlx"
     script.write_text(gen.mixed_example_text(params))
-    mesh = io.load_mesh(noisy_file)
-    layers = meshlab.run_steps(meshlab.read_script(script), mesh)
+    mesh = mesh_files.load_mesh(noisy_file)
+    layers = scripts.run_steps(scripts.read_script(script), mesh)
     cleaned = _direct(noisy_file, gen.MIXED_CLEANUP)  # a MeshSet must outlive its meshes' use
     cleaned_mesh = cleaned.current_mesh()
     cleaned_mesh.compact()
@@ -146,7 +148,7 @@ def test_mls_runs_on_the_current_layer(tmp_path):
     box = trimesh.creation.box((1.0, 1.2, 0.8)).subdivide().subdivide().subdivide().subdivide()
     rng = np.random.default_rng(3)
     mesh = trimesh.Trimesh(box.vertices + rng.normal(0, 0.01, box.vertices.shape), box.faces, process=False)
-    layers = meshlab.run_steps(meshlab.read_script(script), mesh)
+    layers = scripts.run_steps(scripts.read_script(script), mesh)
     assert (len(layers.meshes), layers.current) == (2, 1)
     assert np.array_equal(layers.meshes[0].vertices, mesh.vertices)
     projected = layers.current_mesh.vertices
@@ -211,7 +213,7 @@ def test_bad_scripts_name_the_line_filter_and_parameter(tmp_path, text, message)
     path = tmp_path / "bad.mlx"
     path.write_text(text)
     with pytest.raises(InputError, match=message):
-        meshlab.read_script(path)
+        scripts.read_script(path)
 
 
 @pytest.mark.parametrize("text", [BILLION_LAUGHS,

@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from skelfilter.neighbourhood import ravel, unravel
-from skelfilter.saliency import derivative_measure, feature_velocity, rho_plus, skeleton_adjacency
+from skelfilter.core.neighbourhood import ravel, unravel
+from skelfilter.core.saliency import derivative_measure, feature_velocity, rho_plus, skeleton_adjacency
 
 
 def random_voxels(shape=(12, 13, 14), n=300, seed=0):

@@ -8,8 +8,10 @@ CHECK = r'''
 import os, signal, sys
 import numpy as np
 import trimesh
-from skelfilter import mesh_pipeline, pipeline, render, skeleton
-from skelfilter.progress import Progress
+from skelfilter.core import pipeline, skeleton
+from skelfilter.evaluation import figures
+from skelfilter.mesh import pipeline as mesh_pipeline
+from skelfilter.runtime.progress import Progress
 
 masks = set()  # the signal masks seen inside the skeleton step
 original = skeleton.ie_skeleton
@@ -26,7 +28,7 @@ volume[8:32, 8:32, 8:32] = True
 pipeline.denoise_volume(volume, progress=Progress(enabled=False, shield=shield) if shield else None)
 box = trimesh.creation.box()
 mesh_pipeline.denoise_mesh(box, resolution=32, progress=Progress(enabled=False, shield=shield) if shield else None)
-render.save_panels([box], ["box"], os.path.join(sys.argv[1], "box.png"))
+figures.save_panels([box], ["box"], os.path.join(sys.argv[1], "box.png"))
 assert masks and masks == {before}, (masks, before)
 assert frozenset(signal.pthread_sigmask(signal.SIG_BLOCK, [])) == before
 assert dict(os.environ) == environment

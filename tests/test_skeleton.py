@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from skelfilter.distance import distance_and_features, feature_points, gradient_at
-from skelfilter.neighbourhood import OFFSETS_26, unravel
-from skelfilter.skeleton import extended_feature_points, ie_skeleton, ima_skeleton
+from skelfilter.core.distance import distance_and_features, feature_points, gradient_at
+from skelfilter.core.neighbourhood import OFFSETS_26, unravel
+from skelfilter.core.skeleton import extended_feature_points, ie_skeleton, ima_skeleton
 
 
 def blob(shape=(24, 22, 20), seed=0):

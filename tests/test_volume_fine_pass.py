@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from skelfilter import metrics, pipeline, volume_fine_pass
+from skelfilter.core import pipeline, volume_fine_pass
 from skelfilter.errors import ParameterError
+from skelfilter.evaluation import metrics
 from skelfilter.params import DenoiseParams
 
 

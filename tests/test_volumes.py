@@ -11,9 +11,11 @@ import tifffile
 from scipy import ndimage
 from scipy.spatial.transform import Rotation
 
-from skelfilter import files, io, pipeline, volume_io
-from skelfilter import spacing as voxel_spacing
+from skelfilter.core import pipeline
+from skelfilter.core import spacing as voxel_spacing
 from skelfilter.errors import InputError
+from skelfilter.io import mesh_files, volume_files
+from skelfilter.jobs import denoise_file
 from skelfilter.params import DenoiseParams, VolumeParams
 
 # A single bump is no noise spread over the surface: the default keeps it (keep_features); these tests
@@ -89,7 +91,7 @@ def test_nifti_out_keeps_header_and_affine_and_mesh_lies_on_the_mask_in_world(ni
     assert out.header["descrip"] == source.header["descrip"] and out.get_data_dtype() == np.uint8
     denoised = np.asarray(out.dataobj) > 0
     assert mostly_gone(denoised, phantom((0.5, 0.5, 1.5))[2])
-    mesh = io.load_mesh(tmp_path / "out.ply")
+    mesh = mesh_files.load_mesh(tmp_path / "out.ply")
     assert mesh.is_watertight and mesh.volume > 0
     # The mesh, taken back to voxel indices, lies on the written mask's surface: the half-way level
     # of the mask's signed distance (mm), sampled where the vertices fall.
@@ -111,11 +113,11 @@ def test_nrrd_and_tiff_round_trip(tmp_path):
     tifffile.imwrite(tmp_path / "in.tif", np.ascontiguousarray(mask.astype(np.uint8).T), imagej=True,
                      resolution=(2.0, 2.0), metadata={"spacing": 1.0, "unit": "mm"})
     for name in ("in.nrrd", "in.tif"):
-        source = volume_io.load_volume(tmp_path / name)
+        source = volume_files.load_volume(tmp_path / name)
         assert np.array_equal(source.data.astype(bool), mask) and np.allclose(source.spacing, (0.5, 0.5, 1.0))
         out = tmp_path / name.replace("in", "out")
-        files.denoise_file(tmp_path / name, out, PRUNE)
-        back = volume_io.load_volume(out)
+        denoise_file.denoise_file(tmp_path / name, out, PRUNE)
+        back = volume_files.load_volume(out)
         assert np.array_equal(back.affine, source.affine) and back.data.shape == mask.shape
         assert mostly_gone(back.data.astype(bool), bump)
     assert nrrd.read_header(str(tmp_path / "out.nrrd"))["content"] == "phantom"
@@ -127,22 +129,22 @@ def test_world_coordinates_are_ras_whatever_the_files_convention(tmp_path):
     lps = np.diag([1.0, 1.0, 1.0])
     nrrd.write(str(tmp_path / "lps.nrrd"), mask.astype(np.uint8),
                {"space": "left-posterior-superior", "space directions": lps, "space origin": np.array([5.0, 6.0, 7.0])})
-    files.denoise_file(tmp_path / "lps.nrrd", tmp_path / "out.nii.gz", DenoiseParams())
-    files.denoise_file(tmp_path / "lps.nrrd", tmp_path / "out.ply", DenoiseParams())
+    denoise_file.denoise_file(tmp_path / "lps.nrrd", tmp_path / "out.nii.gz", DenoiseParams())
+    denoise_file.denoise_file(tmp_path / "lps.nrrd", tmp_path / "out.ply", DenoiseParams())
     assert np.allclose(nibabel.load(tmp_path / "out.nii.gz").affine,
                        [[-1, 0, 0, -5], [0, -1, 0, -6], [0, 0, 1, 7], [0, 0, 0, 1]])
     centre = np.array([-5.0, -6.0, 7.0]) + [-31.5, -31.5, 31.5]  # voxel (31.5, 31.5, 31.5) in RAS
-    assert np.allclose(io.load_mesh(tmp_path / "out.ply").bounds.mean(axis=0), centre + [-0.5 * BUMP, 0, 0],
+    assert np.allclose(mesh_files.load_mesh(tmp_path / "out.ply").bounds.mean(axis=0), centre + [-0.5 * BUMP, 0, 0],
                        atol=1.0)
     nrrd.write(str(tmp_path / "odd.nrrd"), mask.astype(np.uint8), {"space": "scanner-xyz"})
     with pytest.raises(InputError, match="NRRD space 'scanner-xyz' is not supported"):
-        volume_io.load_volume(tmp_path / "odd.nrrd")
+        volume_files.load_volume(tmp_path / "odd.nrrd")
 
 
 def test_a_plain_tiff_has_unit_spacing(tmp_path):
     """Not ImageJ's: its resolution is dots per inch, not a voxel size."""
     tifffile.imwrite(tmp_path / "plain.tif", np.zeros((4, 5, 6), np.uint8), resolution=(72.0, 72.0))
-    assert np.array_equal(volume_io.load_volume(tmp_path / "plain.tif").spacing, [1.0, 1.0, 1.0])
+    assert np.array_equal(volume_files.load_volume(tmp_path / "plain.tif").spacing, [1.0, 1.0, 1.0])
 
 
 def test_a_label_map_keeps_every_other_label(tmp_path):
@@ -151,7 +153,7 @@ def test_a_label_map_keeps_every_other_label(tmp_path):
     labels[:8] = 7  # another structure, touching nothing
     labels[56:60, 30:34, 30:34] = 5  # and one just outside the ball
     np.save(tmp_path / "labels.npy", labels)
-    files.denoise_file(tmp_path / "labels.npy", tmp_path / "out.npy", PRUNE, VolumeParams(label=3))
+    denoise_file.denoise_file(tmp_path / "labels.npy", tmp_path / "out.npy", PRUNE, VolumeParams(label=3))
     out = np.load(tmp_path / "out.npy")
     assert out.dtype == labels.dtype
     others = (labels != 3) & (labels != 0)
@@ -169,7 +171,7 @@ def test_a_label_map_keeps_every_other_label(tmp_path):
 def test_bad_volumes_are_refused(tmp_path, data, params, message):
     np.save(tmp_path / "v.npy", data)
     with pytest.raises(InputError, match=message):
-        files.denoise_file(tmp_path / "v.npy", tmp_path / "o.npy", DenoiseParams(), VolumeParams(**params))
+        denoise_file.denoise_file(tmp_path / "v.npy", tmp_path / "o.npy", DenoiseParams(), VolumeParams(**params))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["v.npy"]
 
 
@@ -177,7 +179,7 @@ def test_a_mesh_gives_no_volume(tmp_path):
     import trimesh
     trimesh.creation.box().export(tmp_path / "cube.ply")
     with pytest.raises(InputError, match="a mesh input gives a mesh output"):
-        files.denoise_file(tmp_path / "cube.ply", tmp_path / "o.nii.gz", DenoiseParams())
+        denoise_file.denoise_file(tmp_path / "cube.ply", tmp_path / "o.nii.gz", DenoiseParams())
 
 
 def test_python_api_takes_an_affine():

@@ -1,4 +1,4 @@
-"""Tests of skelfilter.voxelize: the grid, exact shapes, and real open, unmerged and genus-1 meshes."""
+"""Tests of skelfilter.mesh.voxelize: the grid, exact shapes, and real open, unmerged and genus-1 meshes."""
 
 from importlib import resources
 from pathlib import Path
@@ -10,10 +10,10 @@ from scipy import ndimage as ndi
 from scipy.spatial import ConvexHull
 from skimage.measure import euler_number, marching_cubes
 
-import skelfilter.voxelize as voxelize_module
+from skelfilter.core.neighbourhood import has_border_margin
 from skelfilter.errors import InputError, ParameterError
-from skelfilter.neighbourhood import has_border_margin
-from skelfilter.voxelize import Grid, grid_for_bounds, voxelize, voxelize_on_grid
+from skelfilter.mesh import ray_votes
+from skelfilter.mesh.voxelize import Grid, grid_for_bounds, voxelize, voxelize_on_grid
 
 DATA = Path(__file__).parent / "data"
 CUBE26 = np.ones((3, 3, 3), dtype=bool)
@@ -166,7 +166,7 @@ def test_icosphere_matches_its_half_spaces_and_volume():
 def nudge(request, monkeypatch):
     """Run with the sampling's sub-voxel nudge, and without it to test the exact tie rule alone."""
     if not request.param:
-        monkeypatch.setattr(voxelize_module, "_NUDGE", np.zeros(3))
+        monkeypatch.setattr(ray_votes, "_NUDGE", np.zeros(3))
 
 
 def test_rays_exactly_through_vertices_and_edges(nudge):
@@ -218,7 +218,7 @@ def test_void_of_a_closed_mesh_stays_empty():
     inner = trimesh.creation.icosphere(subdivisions=3, radius=0.5)
     inner.invert()  # a void's wall faces into the void
     shell = trimesh.util.concatenate([outer, inner])
-    assert voxelize_module.is_consistently_oriented(shell.vertices, shell.faces)
+    assert ray_votes.is_consistently_oriented(shell.vertices, shell.faces)
     volume, grid = voxelize(shell, resolution=64)
     void = ndi.binary_fill_holes(volume) & ~volume
     assert void.sum() * grid.pitch**3 == pytest.approx(-inner.volume, rel=0.02)
@@ -252,13 +252,13 @@ def test_overlapping_parts_give_their_union():
 
 def test_orientation_test_needs_a_closed_consistent_mesh():
     box = trimesh.creation.box()
-    assert voxelize_module.is_consistently_oriented(box.vertices, box.faces)
+    assert ray_votes.is_consistently_oriented(box.vertices, box.faces)
     flipped = box.faces.copy()
     flipped[0] = flipped[0, ::-1]
-    assert not voxelize_module.is_consistently_oriented(box.vertices, flipped)
-    assert not voxelize_module.is_consistently_oriented(box.vertices, box.faces[1:])
+    assert not ray_votes.is_consistently_oriented(box.vertices, flipped)
+    assert not ray_votes.is_consistently_oriented(box.vertices, box.faces[1:])
     corners = box.triangles.reshape(-1, 3)  # unmerged: coinciding vertices count as one
-    assert voxelize_module.is_consistently_oriented(corners, np.arange(len(corners)).reshape(-1, 3))
+    assert ray_votes.is_consistently_oriented(corners, np.arange(len(corners)).reshape(-1, 3))
 
 
 def test_open_tube_and_open_box_fill_like_the_closed_ones():

@@ -1,0 +1,5 @@
+import sys
+
+from skelfilter.cli.commands import main
+
+sys.exit(main())

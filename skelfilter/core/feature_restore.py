@@ -1,0 +1,174 @@
+"""What a pruning removed that is no noise, given back: features by their extent, and connections.
+
+Pruning decides voxel by voxel from the skeleton's importance, so a part thinner than the threshold
+goes with the noise whatever its length: a wing, a leg, a fin, a rim. Noise is low (see
+:mod:`skelfilter.core.noise_estimate`); a removed part that stands higher above the kept shape than the
+noise is a feature, and comes back whole. And a pruning that cuts a shape in two, or cuts a piece of
+it loose, removed what joined them: that comes back too.
+"""
+
+import numba
+import numpy as np
+from scipy import ndimage
+
+from skelfilter.core.distance import distance_and_features
+from skelfilter.core.neighbourhood import OFFSETS_26, bounding_box, flat_offsets, push
+from skelfilter.core.noise_estimate import height_above
+
+CUBE = np.ones((3, 3, 3), dtype=bool)
+# Voxels added to the estimated noise height before a removed part counts as a feature: the
+# estimate is a 99 % quantile of the noise's peaks, and the tallest noise blobs pass it by a voxel or
+# two (measured on the tuning shapes of benchmarks/quality.py, see docs/noise-estimate.md).
+MARGIN = 2.0
+# Voxels from the nearest tall removed voxel beyond which a removed skin is an edge's, not noise's
+# (bumps' feet reach about r = 2 voxels around them; 2, 3 and 4 were measured).
+SKIN_REACH = 3.0
+
+
+def features_by_extent(stage_set, pruned, height, tolerance=0.5):
+    """The removed voxels of the parts that stand higher than ``height`` above the pruned shape.
+
+    The removed voxels (``stage_set`` \\ ``pruned``) farther than ``height`` from ``pruned`` are the
+    tops of features. From them the feature is followed down to where it joins the kept shape:
+    through 26-neighbours among the removed voxels on paths whose height (distance to ``pruned``)
+    never rises more than ``tolerance`` above the lowest height on the way, so a feature comes back
+    whole while the noise next to its foot, which rises again, stays removed.
+
+    Parameters
+    ----------
+    stage_set, pruned : bool ndarray
+        The stage's set X and its pruned reconstruction K ⊆ X.
+    height : float
+        Voxels: the noise height; parts standing higher are features.
+    tolerance : float, optional
+        Voxels: how much a path down a feature may rise above its lowest point (the grid's
+        quantization of distances).
+
+    Returns
+    -------
+    bool ndarray, the shape of ``stage_set``
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> body = np.zeros((30, 30, 60), bool); body[5:25, 5:25, 5:25] = True
+    >>> leg = body.copy(); leg[14:16, 14:16, 25:50] = True         # a 2-voxel rod, 25 long
+    >>> int(features_by_extent(leg, body, 6.0).sum())
+    100
+    """
+    removed = stage_set & ~pruned
+    out = np.zeros_like(removed)
+    box, above = height_above(removed, pruned, height + 2.0)
+    if box is None:
+        return out
+    tops = np.flatnonzero((above > height).reshape(-1))
+    if not tops.size:
+        return out
+    # Padded by one voxel so that no neighbour step leaves the array.
+    tops = np.unravel_index(tops, above.shape)
+    above = np.pad(above, 1)
+    found = np.zeros(above.shape, dtype=bool)
+    tops = np.ravel_multi_index(tuple(c + 1 for c in tops), above.shape)
+    # Beyond the reach of height_above every height reads as the reach: a flat top, followed freely.
+    _descend(above.reshape(-1), found.reshape(-1), tops, flat_offsets(above.shape, OFFSETS_26), tolerance)
+    out[box] = found[1:-1, 1:-1, 1:-1]
+    return out
+
+
+@numba.njit(cache=True)
+def _descend(height, found, seeds, steps, tolerance):
+    """Mark (in ``found``) the voxels of height > 0 reached from ``seeds`` through 26-neighbours on a
+    path that never rises more than ``tolerance`` above its lowest voxel so far.
+
+    Each voxel keeps the highest such lowest level over the paths found to it (label correcting:
+    a voxel is visited again when a path with a higher level reaches it).
+    """
+    level = np.full(height.size, -1.0, dtype=np.float32)
+    stack = np.empty(max(seeds.size, 1024), dtype=np.int64)
+    top = 0
+    for s in seeds:
+        if level[s] < height[s]:
+            level[s] = height[s]
+            stack, top = push(stack, top, s)
+    while top > 0:
+        top -= 1
+        v = stack[top]
+        for step in steps:
+            u = v + step
+            if height[u] <= 0.0 or height[u] > level[v] + tolerance:
+                continue
+            new = min(level[v], height[u])
+            if new <= level[u]:
+                continue
+            level[u] = new
+            stack, top = push(stack, top, u)
+    for v in range(height.size):
+        found[v] = level[v] >= 0.0
+
+
+def connections(stage_set, result, width, most=8):
+    """Removed voxels that join pieces of ``result`` which ``stage_set`` had joined.
+
+    Each piece (26-connected) of ``result`` but the largest is joined to the piece nearest to it
+    through the removed voxels ``stage_set \\ result``: with ``g`` the least ``d_A + d_B`` over the
+    removed voxels (``d`` the distances to the two pieces, found with one distance transform per
+    piece), the bridge is the removed voxels with ``d_A + d_B <= g + 2 max(g, width)``, a neck about
+    ``width`` across, where it joins both pieces. So the result keeps the input's components (the
+    noise could not have split them) without giving back all the noise around the neck. Only the
+    ``most`` largest pieces are joined (the smaller ones are specks, removed later).
+
+    Returns
+    -------
+    bool ndarray
+        The voxels to restore.
+    """
+    removed = stage_set & ~result
+    out = np.zeros_like(removed)
+    box = bounding_box(stage_set, margin=1)
+    if box is None or not removed.any():
+        return out
+    kept, n_kept = ndimage.label(result[box], structure=CUBE)
+    if n_kept <= 1:
+        return out
+    sizes = np.bincount(kept.reshape(-1))[1:]
+    order = np.argsort(-sizes)[:most] + 1
+    gone = removed[box]
+    distance = {label: ndimage.distance_transform_edt(kept != label).astype(np.float32) for label in order}
+    bridges = np.zeros_like(gone)
+    for i, a in enumerate(order[1:], 1):
+        gaps = [(float((distance[a] + distance[b])[gone].min()), b) for b in order[:i]]
+        gap, b = min(gaps)
+        total = distance[a] + distance[b]
+        neck = gone & (total <= gap + 2 * max(gap, width))
+        # The part of the neck that touches both pieces.
+        labels, _ = ndimage.label(neck, structure=CUBE)
+        near_a = ndimage.binary_dilation(kept == a, structure=CUBE)
+        near_b = ndimage.binary_dilation(kept == b, structure=CUBE)
+        both = np.intersect1d(labels[near_a & neck], labels[near_b & neck])
+        bridges |= np.isin(labels, both[both > 0])
+    out[box] = bridges
+    return out
+
+
+def skin_far_from_noise(stage_set, pruned, reach, tall=2.0):
+    """Removed voxels farther than ``reach`` from every removed voxel standing ``tall`` or more above
+    ``pruned``: the skin that the pruning and the minification take off convex edges and corners
+    (a voxel or two), away from any noise, comes back.
+
+    Returns
+    -------
+    bool ndarray
+        The voxels to restore.
+    """
+    removed = stage_set & ~pruned
+    out = np.zeros_like(removed)
+    box, above = height_above(removed, pruned, tall + 1)
+    if box is None:
+        return out
+    noise = above >= tall
+    if not noise.any():
+        out[box] = removed[box]
+        return out
+    out[box] = removed[box] & (distance_and_features(~noise)[0] > reach)
+    return out
+

@@ -1,0 +1,403 @@
+"""The adapted saliency pipeline (thesis §8.1.1) on volumes: composition of the stages.
+
+grid -> distance & feature fields -> skeleton -> importance -> derivative measure -> rho+ -> pruned
+skeleton -> EDT filter -> reconstruction; foreground stage for bumps, background stage for dents.
+Meshes go through :mod:`skelfilter.mesh.pipeline`, which voxelizes them and runs this.
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import ndimage
+
+from skelfilter.core import (
+    edt_filters,
+    feature_restore,
+    importance,
+    noise_estimate,
+    reconstruct,
+    saliency,
+    skeleton,
+    surface_field,
+    volume_fine_pass,
+)
+from skelfilter.core import spacing as voxel_spacing
+from skelfilter.core.distance import distance_and_features
+from skelfilter.core.neighbourhood import bounding_box, unravel
+from skelfilter.errors import InputError
+from skelfilter.params import DenoiseParams, VolumeParams, build
+from skelfilter.runtime.memory import check_grid_fits
+from skelfilter.runtime.progress import Progress
+
+
+@dataclass
+class SkeletonData:
+    """Per-skeleton-voxel quantities of one stage (flat arrays aligned with ``voxels``)."""
+
+    voxels: np.ndarray  # flat indices into the stage's volume
+    distance: np.ndarray  # D
+    rho: np.ndarray  # importance
+    sigma_bar: np.ndarray  # derivative measure (NaN: undefined, eq. 4.3)
+    rho_plus: np.ndarray  # global streamline importance, eq. 5.6
+    kept: np.ndarray  # rho+ >= t
+    radii: np.ndarray  # reconstruction radii of the kept voxels (after the EDT filter)
+    expansions: np.ndarray = None  # A* nodes settled per geodesic query
+
+
+@dataclass
+class StageResult:
+    mask: np.ndarray  # the reconstruction, a subset of the stage's input set
+    field: np.ndarray  # signed distance-like field, > 0 inside the reconstruction
+    skeleton: SkeletonData
+
+
+@dataclass
+class DenoiseResult:
+    mask: np.ndarray  # denoised occupancy, same shape as the input volume
+    field: np.ndarray  # > 0 inside; its 0-level is the sub-voxel surface
+    stages: dict = field(default_factory=dict)  # "foreground"/"background" -> StageResult
+    noise: dict = field(default_factory=dict)  # "foreground"/"background" -> noise_estimate.NoiseEstimate
+    fine_noise: object = None  # a volume's volume_fine_pass.FineNoise, where the fine pass changed it
+    timings: dict = field(default_factory=dict)
+    voxels_changed: int = 0  # voxels added or removed: on the voxel grid of a mesh, on a volume's own
+
+
+def resolve_params(params=None, **overrides):
+    """A DenoiseParams from an instance and/or keyword overrides."""
+    return build(DenoiseParams, params, **overrides)
+
+
+def saliency_stage(volume, params, progress):
+    """One stage (§8.1.1 steps 1–5) on the set ``volume``; returns its reconstruction."""
+    shape = volume.shape
+    with progress.step("distance transform"):
+        distance, features = distance_and_features(volume)
+    with progress.step("skeleton"):
+        if params.skeleton == "ie":
+            voxels = skeleton.ie_skeleton(distance)
+        else:
+            voxels = skeleton.ima_skeleton(volume, features)
+        a_flat, b_flat = skeleton.extended_feature_points(volume, features, voxels)
+        del features
+    with progress.step("importance"):
+        expansions = None
+        if params.importance == "geodesic":
+            rho, expansions = importance.geodesic_importance(
+                importance.boundary_layer(volume), a_flat, b_flat, params.cap_voxels
+            )
+        else:
+            if params.importance == "estimate":
+                rho = importance.geodesic_estimate(distance, a_flat, b_flat)
+            else:
+                rho = importance.euclidean_importance(shape, a_flat, b_flat)
+            # Feature points on separate surfaces (object and frame) are
+            # infinitely far apart along the boundary, whatever the proxy says.
+            far = importance.disconnected_pairs(importance.boundary_layer(volume), a_flat, b_flat)
+            rho[far] = np.float32(params.cap_voxels)
+    with progress.step("derivative measure"):
+        adjacency = saliency.skeleton_adjacency(voxels, shape)
+        if params.velocity == "feature":
+            v = saliency.feature_velocity(voxels, shape, unravel(a_flat, shape), unravel(b_flat, shape))
+        else:
+            v = saliency.edt_gradient_velocity(distance, voxels)
+        sigma_bar = saliency.derivative_measure(
+            rho, distance, voxels, v, adjacency, params.derivative_guard,
+            min_cosine=saliency.STREAM_COSINE, min_rho=params.derivative_min_rho,
+        )
+    with progress.step("rho+"):
+        # Eq. 5.6 restricted to the neighbours ahead along v, the cone that
+        # the derivative measure steps in (the streamlines of eq. 5.1).
+        rho_plus = saliency.rho_plus(
+            rho, sigma_bar, adjacency, params.k, velocity=v, skeleton=voxels, shape=shape,
+            min_cosine=saliency.STREAM_COSINE, min_rho=params.derivative_min_rho,
+        )
+        kept = rho_plus >= params.threshold_voxels
+        if params.thin_radius_voxels is not None:
+            radius = distance.reshape(-1)[voxels]
+            kept |= saliency.thin_part(voxels, a_flat, b_flat, radius, shape, params.thin_radius_voxels)
+            kept &= ~saliency.detached_noise(kept, adjacency, radius, params.thin_radius_voxels)
+            del radius
+        centres = voxels[kept]
+        del adjacency, v, a_flat, b_flat
+    with progress.step("EDT filter"):
+        radii = distance.reshape(-1)[centres]
+        if params.edt_filter == "minify":
+            # Eq. 6.1 keeps the filter anti-extensive, but on a discrete EDT
+            # (D >= 1 on X) the +r correction can exceed D by up to 1: cap it.
+            radii = np.minimum(edt_filters.minify(distance, centres, params.minify_radius), radii)
+        # Balls of radius D reach the centres of the nearest outside voxels;
+        # shrunk by half a voxel they end on the voxel boundary, so the
+        # reconstruction is the voxel set whose centres lie inside the
+        # union, and ripples under half a voxel vanish.
+        radii = np.maximum(radii - surface_field.SURFACE_OFFSET, 0.0)
+    data = SkeletonData(
+        voxels=voxels,
+        distance=distance.reshape(-1)[voxels],
+        rho=rho,
+        sigma_bar=sigma_bar,
+        rho_plus=rho_plus,
+        kept=kept,
+        radii=radii,
+        expansions=expansions,
+    )
+    del distance
+    with progress.step("reconstruction"):
+        mask, phi = reconstruct.union_of_balls(shape, centres, radii)
+    return StageResult(mask=mask, field=phi, skeleton=data)
+
+
+def denoise_padded(volume, params, progress):
+    """Both stages on a volume whose set keeps ``params.padding_voxels`` from the faces.
+
+    Each stage's mask and field are consumed by what follows (in place, to
+    keep memory low): ``stages`` keeps the first stage's mask and every
+    stage's skeleton data.
+    """
+    result = DenoiseResult(mask=volume, field=None, timings=progress.timings)
+    current = volume
+    if params.stages in ("both", "foreground"):
+        with progress.stage("foreground"):
+            stage = saliency_stage(current, params, progress)
+            if params.keep_features == "on":
+                result.noise["foreground"] = keep_features(current, stage, params, "bumps", progress)
+        result.stages["foreground"] = stage
+        current = stage.mask
+        field = stage.field
+    if not current.any():
+        raise InputError(
+            f"nothing is left after pruning at threshold t = {params.threshold_voxels:g} voxels: "
+            "the whole shape is thinner than the noise scale; lower `threshold` or raise `resolution`"
+        )
+    if params.stages in ("both", "background"):
+        field = None
+        if "foreground" in result.stages:
+            result.stages["foreground"].field = None
+        # The background lives inside the box; the box's outer layer stands
+        # for the infinite outside so the background set is bounded (eq. 3.4).
+        background = ~current
+        _fill_outside(background, (slice(1, -1),) * 3, False)
+        with progress.stage("background"):
+            stage = saliency_stage(background, params, progress)
+            if params.keep_features == "on":
+                result.noise["background"] = keep_features(background, stage, params, "dents", progress)
+        del background
+        result.stages["background"] = stage
+        # Filling dents never reaches past the shape's bounding box; outside
+        # it the background's reconstruction only misses the frame's own
+        # edges (cut by the EDT filter), which are not part of the shape.
+        box = bounding_box(current)
+        current, field = stage.mask, stage.field
+        stage.mask = stage.field = None
+        np.logical_not(current, out=current)
+        _fill_outside(current, box, False)
+        np.negative(field, out=field)
+        _fill_outside(field, tuple(slice(b.start - 1, b.stop + 1) for b in box), -1.0)
+    # A shape in which no stage found noise passes through whole: no specks or spikes taken off either.
+    unchanged = passes_through(params, result)
+    if params.edt_filter == "minify" and not unchanged:
+        with progress.step("specks"):
+            specks = edt_filters.specks(current, params.minify_radius)
+            current ^= specks
+            field[specks] = np.where(current[specks], 1.0, -1.0)
+    if params.thin_radius_voxels is not None and not unchanged:
+        with progress.step("needles"):
+            spikes = edt_filters.needles(current)
+            current &= ~spikes
+            field[spikes] = -1.0
+    # The mesh and the voxels must agree: inside the surface iff in the mask.
+    np.maximum(field, 1e-3, out=field, where=current)
+    np.minimum(field, -1e-3, out=field, where=~current)
+    result.mask = current
+    result.field = field
+    return result
+
+
+def keep_features(stage_set, stage, params, side, progress):
+    """Give back what the pruning of ``stage_set`` removed that is no noise, in ``stage`` (in place).
+
+    The noise is measured on what the pruning removed (`noise_estimate.estimate_noise`), unless
+    ``params.noise_height`` gives its height. Removed parts standing higher than the noise (with
+    `feature_restore.MARGIN`) come back whole (`feature_restore.features_by_extent`), and so do
+    whatever joined pieces that the pruning cut apart (`feature_restore.connections`) and the skin
+    of edges away from the noise (`feature_restore.skin_far_from_noise`). Where no noise is found
+    and neither the noise height nor the threshold was given, everything comes back: the input
+    passes through. Returns the `noise_estimate.NoiseEstimate`, also told through ``progress``.
+    """
+    with progress.step("noise estimate"):
+        estimate = noise_estimate.estimate_noise(stage_set, stage.mask, params.resolution, side)
+    progress.note(f"noise: {estimate.describe()}")
+    height = _restored_height(params, estimate)
+    with progress.step("features kept"):
+        if height is None:
+            restored = stage_set & ~stage.mask
+        else:
+            restored = feature_restore.features_by_extent(stage_set, stage.mask, height)
+            restored |= feature_restore.connections(stage_set, stage.mask | restored, height)
+            restored |= feature_restore.skin_far_from_noise(stage_set, stage.mask | restored,
+                                                            feature_restore.SKIN_REACH)
+        _restore(stage.mask, stage.field, restored)
+    return estimate
+
+
+def passes_through(params, result):
+    """Whether the stages gave their input back: no stage found noise and none prunes whatever it finds."""
+    return not params.prunes_whatever_found and not any(e.found for e in result.noise.values())
+
+
+def _restored_height(params, estimate):
+    """Voxels: the height from which a removed part is a feature, or None where the stage passes its
+    input through (no noise found, neither the noise height nor the threshold given)."""
+    if params.noise_height is not None:
+        return params.noise_height
+    if estimate.found:
+        return estimate.height + feature_restore.MARGIN
+    if params.threshold_given:
+        return noise_estimate.HIGHEST_NOISE * params.resolution
+    return None
+
+
+def _restore(mask, field, restored):
+    """Add ``restored`` to the reconstruction ``mask`` and its ``field`` (in place): inside at half a
+    voxel from the surface, which lies on the voxels' faces as for every voxel of the input."""
+    box = bounding_box(restored, margin=1)
+    if box is None:
+        return
+    mask |= restored
+    np.maximum(field, 0.5, out=field, where=restored)
+    rim = ndimage.binary_dilation(restored[box], structure=np.ones((3, 3, 3), dtype=bool)) & ~mask[box]
+    np.maximum(field[box], -0.5, out=field[box], where=rim)
+
+
+def _fill_outside(volume, box, value):
+    """Set every voxel of ``volume`` outside the slices ``box`` to ``value``, in place."""
+    for axis, s in enumerate(box):
+        start, stop, _ = s.indices(volume.shape[axis])
+        for part in (slice(None, start), slice(stop, None)):
+            index = [slice(None)] * 3
+            index[axis] = part
+            volume[tuple(index)] = value
+
+
+def denoise_volume(volume, params=None, progress=None, spacing=None, affine=None, **overrides):
+    """Denoise a binary volume (thesis §8.1.1).
+
+    Parameters
+    ----------
+    volume : (nx, ny, nz) array_like of bool
+        The noisy shape X.
+    params : DenoiseParams, optional
+        Parameters; keyword arguments override single fields
+        (``denoise_volume(v, threshold=12)``).
+    spacing : sequence of 3 floats, optional
+        Voxel size along each axis (e.g. millimetres). Anisotropic voxels are resampled to cubic
+        ones of the finest spacing for the pipeline and the result back (:mod:`skelfilter.core.spacing`);
+        voxel counts in the parameters are then in voxels of the finest spacing, and a relative
+        threshold stands for the same physical size whatever the spacing.
+    affine : (4, 4) array_like, optional
+        Voxel index to world coordinates (a scanner's volume); gives the spacing (the lengths of its
+        columns) when ``spacing`` is not given. `skelfilter.mesh.marching_cubes.field_to_world_mesh`
+        (``result.field``, the affine) makes the world-coordinate mesh.
+
+    Returns
+    -------
+    DenoiseResult
+        ``mask`` (same shape as ``volume``), ``field`` (> 0 inside, 0 on the
+        sub-voxel surface), per-stage skeleton data (on the cubic grid) and step timings.
+        The volume's grid is used as it is: ``resolution`` is taken as the longest side of the
+        set voxels' bounding box, so a relative threshold is relative to the shape's size.
+
+    References
+    ----------
+    .. [1] H. R. Schubert, "Salient edge preserving noise removal using surface skeletons", master
+           thesis, University of Groningen, 2016, §3.1.1 (the two stages), §8.1.1 (the pipeline).
+    .. [2] A. Telea, "Feature preserving smoothing of shapes using saliency skeletons",
+           Visualization in Medicine and Life Sciences II, Springer, 2012.
+    """
+    params = resolve_params(params, **overrides)
+    volume = np.asarray(volume)
+    if volume.ndim != 3:
+        raise InputError(f"a volume must be 3-D, got shape {volume.shape}")
+    volume = volume.astype(bool)
+    if not volume.any():
+        raise InputError("the volume is empty: no voxel is set")
+    progress = progress or Progress(enabled=False)
+    if spacing is None and affine is not None:
+        spacing = np.linalg.norm(np.asarray(affine, dtype=float)[:3, :3], axis=0)
+    if spacing is not None:
+        spacing = VolumeParams(spacing=tuple(float(s) for s in np.ravel(spacing))).spacing
+    resample = spacing is not None and not voxel_spacing.is_isotropic(spacing)
+    keep = params.unchanged_surface == "input"
+    if resample:
+        check_grid_fits(voxel_spacing.isotropic_shape(volume.shape, spacing))
+        with progress.step("to cubic voxels"):
+            input_field, _ = voxel_spacing.to_isotropic(volume, spacing)
+            cubic = input_field > 0
+    else:
+        cubic = volume
+        input_field = None
+    result, stages_input = _fine_pass_then_stages(cubic, params, progress)
+    if keep:
+        with progress.step("input surface"):
+            if input_field is None or stages_input is not cubic:
+                input_field = voxel_spacing.signed_distance(stages_input, (1.0, 1.0, 1.0))
+            surface_field.keep_input_field(result.field, result.mask, stages_input, input_field)
+    del cubic, input_field, stages_input
+    if resample:
+        with progress.step("back to the input's voxels"):
+            result.field = voxel_spacing.from_isotropic(result.field, spacing, volume.shape)
+            result.mask = result.field > 0
+    result.voxels_changed = int(np.count_nonzero(result.mask != volume))
+    return result
+
+
+def _fine_pass_then_stages(cubic, params, progress):
+    """The volume fine pass (`volume_fine_pass.fine_pass`), then the stages on its result: the
+    DenoiseResult and the volume the stages ran on.
+
+    The fine pass is for noise below the skeleton's scale. Where the stages still find noise at the
+    skeleton's scale after it, the noise is bumps the fine pass would have merged (it fills the
+    valleys between them, and merged bumps are kept): the fine pass is undone and the stages run on
+    the input as it was. Stages that prune whatever they find (`DenoiseParams.prunes_whatever_found`)
+    run on the input directly.
+    """
+    _cubic_params(cubic, params)  # too large a grid is refused before the fine pass runs
+    if params.fine_pass == "on" and params.prunes_whatever_found:
+        progress.note("fine pass: not run, the stages prune at the skeleton's scale whatever the noise "
+                      "(keep_features off, or the threshold or the noise height given)")
+    elif params.fine_pass == "on":
+        with progress.step("fine pass"):
+            smoothed, fine = volume_fine_pass.fine_pass(cubic)
+        progress.note(fine.describe())
+        if smoothed is not cubic:
+            result = _denoise_cubic(smoothed, params, progress)
+            if passes_through(params, result):
+                result.fine_noise = fine
+                return result, smoothed
+            progress.note("noise at the skeleton's scale: the fine pass is undone, the stages run on the input")
+    return _denoise_cubic(cubic, params, progress), cubic
+
+
+def _cubic_params(volume, params):
+    """The parameters for a volume of cubic voxels (its extent as the resolution) and its padding,
+    checked to fit in memory."""
+    extent = max(s.stop - s.start for s in bounding_box(volume))
+    params = params.with_(resolution=max(extent, 16))
+    pad = params.padding_voxels
+    check_grid_fits(tuple(s + 2 * pad for s in volume.shape), padding=pad, padding_from=padding_from(params))
+    return params, pad
+
+
+def _denoise_cubic(volume, params, progress):
+    """The stages on a non-empty boolean volume of cubic voxels."""
+    params, pad = _cubic_params(volume, params)
+    padded = np.pad(volume, pad)
+    result = denoise_padded(padded, params, progress)
+    inner = (slice(pad, -pad),) * 3
+    result.mask = np.ascontiguousarray(result.mask[inner])
+    result.field = np.ascontiguousarray(result.field[inner])
+    return result
+
+
+def padding_from(params):
+    """The parameters that set the padding, for the memory advice."""
+    return "`padding`" if params.padding is not None else "`threshold` (half of it pads the grid)"

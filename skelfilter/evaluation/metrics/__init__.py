@@ -1,0 +1,51 @@
+"""Error measures: the thesis' own (eq. 4.17, 4.18, 6.5, 7.23, 7.24) and mesh-level ones, one
+module per kind; every public measure is importable from here.
+
+:mod:`~.thesis_measures` (voxel sets, geodesic estimates), :mod:`~.surface_distances` (Chamfer,
+Hausdorff, normals, sharp edges, the literature's θ and E_v), :mod:`~.volumetric` (IoU, noise
+removed, shrinkage, thin parts), :mod:`~.topology` (manifoldness, genus) and :mod:`~.mesh_metrics`
+(all of a result's mesh measures at once).
+"""
+
+from skelfilter.evaluation.metrics.mesh_metrics import mesh_metrics
+from skelfilter.evaluation.metrics.surface_distances import (
+    N_SAMPLES,
+    SEED,
+    chamfer_distance,
+    hausdorff_distance,
+    literature_errors,
+    normal_error,
+    pass_through,
+    sharp_edge_error,
+    sharp_edges,
+    surface_distances,
+    vertex_distances,
+)
+from skelfilter.evaluation.metrics.thesis_measures import (
+    geodesic_errors,
+    reconstruction_error,
+    skeleton_error,
+    skeleton_false_positive_rate,
+)
+from skelfilter.evaluation.metrics.topology import (
+    GENUS_RESOLUTION,
+    closed_manifold_genus,
+    genus,
+    is_edge_manifold,
+    voxel_genus,
+)
+from skelfilter.evaluation.metrics.volumetric import (
+    noise_removed,
+    shrinkage,
+    thin_parts,
+    thin_parts_kept,
+    volumetric_iou,
+)
+
+__all__ = [
+    "GENUS_RESOLUTION", "N_SAMPLES", "SEED", "chamfer_distance", "closed_manifold_genus", "genus",
+    "geodesic_errors", "hausdorff_distance", "is_edge_manifold", "literature_errors", "mesh_metrics",
+    "noise_removed", "normal_error", "pass_through", "reconstruction_error", "sharp_edge_error",
+    "sharp_edges", "shrinkage", "skeleton_error", "skeleton_false_positive_rate", "surface_distances",
+    "thin_parts", "thin_parts_kept", "vertex_distances", "voxel_genus", "volumetric_iou",
+]

@@ -1,0 +1,1 @@
+"""Files: meshes and volumes read, checked and written atomically. Imports only the runtime."""

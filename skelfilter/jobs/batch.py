@@ -1,0 +1,342 @@
+"""Many files at once on Dask distributed: ``skelfilter batch`` and `denoise_many`.
+
+Each input file is one task (:func:`skelfilter.jobs.denoise_file.denoise_file`) on a Dask cluster: a
+``LocalCluster`` of single-threaded worker processes by default, each running numba on its share of
+the cores, so Dask's processes and numba's threads do not oversubscribe them; or any running Dask
+scheduler, given by address (a SLURM or Kubernetes cluster; see the README). One bad file never
+stops the batch: its error goes into the summary. A task whose worker dies is retried once on
+another worker, then reported (on someone else's scheduler, as often as its
+``distributed.scheduler.allowed-failures`` says). Outputs are written atomically, so an output that exists is
+complete, and a rerun skips it (``force`` redoes it); a rerun also leaves alone a file that could
+not be used (an ``InputError``) and has not changed since, and tries again everything else.
+"""
+
+import contextlib
+import csv
+import glob
+import json
+import logging
+import os
+import resource
+import sys
+import time
+from dataclasses import fields
+
+from skelfilter.errors import InputError, SkelfilterError
+from skelfilter.io import mesh_files
+from skelfilter.jobs import denoise_file
+from skelfilter.params import DenoiseParams, VolumeParams, build
+from skelfilter.runtime.extras import need
+from skelfilter.runtime.memory import read_field, return_freed_memory
+from skelfilter.runtime.progress import Progress
+
+SUMMARY_FIELDS = ("input", "output", "status", "error", "seconds", "peak_memory_mib", "voxels_changed",
+                  "bad_input")
+
+
+def expand_inputs(inputs):
+    """Files, folders and glob patterns (their supported files that are not hidden; folders are not
+    recursed), as a list of unique paths.
+
+    Raises
+    ------
+    InputError
+        A path or pattern that names nothing, or no supported file at all.
+    """
+    found = []
+    for item in inputs:
+        item = str(item)
+        if os.path.isdir(item):
+            found += [os.path.join(item, name) for name in sorted(os.listdir(item))
+                      if os.path.isfile(os.path.join(item, name)) and _supported(name)]
+        elif os.path.isfile(item):
+            found.append(item)
+        elif glob.has_magic(item):
+            matches = [p for p in sorted(glob.glob(item)) if os.path.isfile(p) and _supported(p)]
+            if not matches:
+                raise InputError(f"{item}: the pattern matches no file")
+            found += matches
+        else:
+            raise InputError(f"{item}: no such file or folder")
+    unique = list(dict.fromkeys(os.path.abspath(p) for p in found))
+    if not unique:
+        raise InputError("no input file of a supported kind")
+    return unique
+
+
+def _supported(name):
+    """A file of a kind skelfilter reads, not hidden (a temporary output, a system file)."""
+    if os.path.basename(name).startswith("."):
+        return False
+    try:
+        denoise_file.file_kind(name)
+        return True
+    except InputError:
+        return False
+
+
+def output_paths(inputs, out_dir, to=None):
+    """Where each input's result goes: ``out_dir`` / its name (with the suffix ``to`` if given).
+
+    Raises
+    ------
+    InputError
+        Two inputs that would write the same output, or an output that is an input.
+    """
+    outputs = []
+    for path in inputs:
+        name = os.path.basename(path)
+        if to:
+            name = name[: -len(mesh_files.file_suffix(name))] + "." + to.lstrip(".")
+        outputs.append(os.path.abspath(os.path.join(out_dir, name)))
+    seen = {}
+    for path, out in zip(inputs, outputs):
+        if out in seen:
+            raise InputError(f"{path} and {seen[out]} would both write {out}; put them in separate batches")
+        seen[out] = path
+        denoise_file.check_paths(path, out)
+        if out in inputs:
+            raise InputError(f"{out}: refusing to overwrite an input file")
+    return outputs
+
+
+def _task(input_path, output_path, params, volume_params, numba_threads):
+    """One file, on a worker: the summary row (never raises for a bad file)."""
+    import numba
+
+    if numba_threads is None:  # a worker of someone else's cluster: the cores its threads leave
+        get_worker = need("distributed", "a batch on Dask").get_worker
+
+        numba_threads = usable_cores() // max(1, get_worker().state.nthreads)
+    numba.set_num_threads(max(1, min(numba_threads, numba.config.NUMBA_NUM_THREADS)))
+    return_freed_memory()  # a setting of the worker process, which this task runs in
+    _reset_peak_memory()
+    start = time.perf_counter()
+    row = {"input": input_path, "output": output_path, "status": "ok", "error": "", "voxels_changed": "",
+           "bad_input": ""}
+    try:
+        # --label, --iso and --spacing are for the volumes of a mixed batch.
+        volume = volume_params if denoise_file.input_kind(input_path) == "volume" else None
+        summary = denoise_file.denoise_file(input_path, output_path, params, volume,
+                                     progress=Progress(enabled=False, shield=True))
+        row["voxels_changed"] = summary["voxels_changed"]
+    except InputError as exc:  # the file itself: a rerun leaves it alone while it stays the same
+        row.update(status="failed", error=str(exc), bad_input=_stamp(input_path))
+    except (SkelfilterError, MemoryError) as exc:
+        row.update(status="failed", error=str(exc) if str(exc) else "out of memory")
+    except Exception as exc:  # a bug or a library's failure on one file must not stop the batch
+        row.update(status="failed", error=f"{type(exc).__name__}: {exc}")
+    row["seconds"] = round(time.perf_counter() - start, 3)
+    row["peak_memory_mib"] = _peak_memory_mib()
+    return row
+
+
+def _reset_peak_memory():
+    """Restart the process' peak resident memory count (Linux: ``clear_refs`` 5), so that it
+    measures this task alone: a worker runs one task at a time. Elsewhere the count is the
+    process' since it started."""
+    with contextlib.suppress(OSError), open("/proc/self/clear_refs", "w") as f:
+        f.write("5")
+
+
+def _peak_memory_mib():
+    peak = read_field("/proc/self/status", "VmHWM")  # kB
+    if peak is not None:
+        return round(int(peak) / 1024, 1)
+    return round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)
+
+
+def local_cluster(workers=None):
+    """A ``LocalCluster`` of ``workers`` single-threaded processes (default: one per core), each
+    with numba on ``cores // workers`` threads; a task whose worker dies is retried once.
+
+    Returns
+    -------
+    (distributed.Client, int)
+        The client, and numba's threads per worker.
+    """
+    dask = need("dask", "a batch on Dask")
+    distributed = need("distributed", "a batch on Dask")
+    Client, LocalCluster = distributed.Client, distributed.LocalCluster
+
+    cores = usable_cores()
+    workers = workers or cores
+    threads = max(1, cores // workers)
+    env = {"NUMBA_NUM_THREADS": str(threads), "OMP_NUM_THREADS": str(threads)}
+    # One task at a time on a worker (saturation 1), so that a worker's death is blamed on its task
+    # alone, which is retried once (allowed failures 1) and then reported. The scheduler reads
+    # both when it starts; the workers' log lines (a worker restarted, a task given up) stay out
+    # of the terminal, the summary says what they mean.
+    with dask.config.set({"distributed.scheduler.allowed-failures": 1,
+                          "distributed.scheduler.worker-saturation": 1.0,
+                          "logging.distributed": "critical"}):
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                               env=env)
+    return Client(cluster), threads
+
+
+def usable_cores():
+    """The cores this process may run on (its CPU affinity: a SLURM job's or a container's share)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
+
+
+def quiet_distributed():
+    """Silence the log lines of Dask's scheduler and nannies in this process (the CLI's choice: its
+    summary says what they mean)."""
+    need("distributed", "a batch on Dask")  # its import sets its loggers' levels, which this overrides
+
+    for name in ["distributed", *logging.root.manager.loggerDict]:
+        if name.startswith("distributed"):
+            logging.getLogger(name).setLevel(logging.CRITICAL)
+
+
+def denoise_many(paths, out_dir, client=None, workers=None, force=False, to=None, report=None, **params):
+    """Denoise many files on Dask; writes ``summary.csv`` and ``summary.json`` into ``out_dir``.
+
+    Parameters
+    ----------
+    paths : list of str
+        Files, folders or glob patterns (`expand_inputs`).
+    out_dir : str
+        Created if missing; each output has its input's name (suffix ``to`` if given).
+    client : distributed.Client, optional
+        A running cluster's client; by default a `local_cluster` of ``workers`` processes, closed
+        at the end.
+    force : bool
+        Redo files whose output exists (by default they are skipped: outputs are written
+        atomically, so one that exists is complete), and files the last run found unusable and
+        that have not changed since (by default their failure is carried over).
+    report : callable, optional
+        Called with each finished row and the counts so far (the CLI's progress bar).
+    **params
+        `DenoiseParams` fields, and `VolumeParams` fields (``label``, ``iso``, ``spacing``).
+
+    Returns
+    -------
+    list of dict
+        One row per input, in input order: ``SUMMARY_FIELDS``; ``status`` is ``ok``, ``skipped`` or
+        ``failed`` (with the error's one line).
+    """
+    volume_names = {f.name for f in fields(VolumeParams)}
+    volume_params = VolumeParams(**{k: v for k, v in params.items() if k in volume_names})
+    denoise_params = build(DenoiseParams, None, **{k: v for k, v in params.items() if k not in volume_names})
+    if os.path.exists(out_dir) and not os.path.isdir(out_dir):
+        raise InputError(f"{out_dir}: exists and is not a folder")
+    inputs = expand_inputs(paths)
+    created = not os.path.isdir(out_dir)
+    os.makedirs(out_dir, exist_ok=True)
+    try:
+        outputs = output_paths(inputs, out_dir, to)
+    except BaseException:
+        if created:
+            os.rmdir(out_dir)
+        raise
+    rows = {}
+    todo = []
+    before = {} if force else _previous_bad_inputs(out_dir)
+    for path, out in zip(inputs, outputs):
+        if force:
+            todo.append((path, out))
+        elif os.path.exists(out):
+            rows[path] = {"input": path, "output": out, "status": "skipped", "error": "", "seconds": 0.0,
+                          "peak_memory_mib": "", "voxels_changed": "", "bad_input": ""}
+        elif path in before and before[path]["bad_input"] == _stamp(path):
+            rows[path] = {**before[path], "seconds": 0.0, "peak_memory_mib": "", "voxels_changed": ""}
+        else:
+            todo.append((path, out))
+    if todo:
+        rows.update(_run(todo, client, workers, denoise_params, volume_params, report, len(rows)))
+    ordered = [rows[path] for path in inputs]
+    _write_summary(out_dir, ordered)
+    return ordered
+
+
+def _stamp(path):
+    """Size and modification time of a file: whether it changed since a run."""
+    stat = os.stat(path)
+    return f"{stat.st_size}:{stat.st_mtime_ns}"
+
+
+def _previous_bad_inputs(out_dir):
+    """The rows of the last summary in ``out_dir`` whose input could not be used (by input path)."""
+    try:
+        with open(os.path.join(out_dir, "summary.json"), encoding="utf-8") as f:
+            rows = json.load(f)
+        return {row["input"]: row for row in rows if row.get("status") == "failed" and row.get("bad_input")}
+    except (OSError, ValueError, TypeError, KeyError, AttributeError):
+        return {}
+
+
+def _run(todo, client, workers, params, volume_params, report, skipped):
+    as_completed = need("distributed", "a batch on Dask").as_completed
+
+    own = client is None
+    threads = None
+    if own:
+        client, threads = local_cluster(workers)
+    rows, counts = {}, {"done": skipped, "failed": 0, "total": skipped + len(todo)}
+    try:
+        futures = {client.submit(_task, path, out, params, volume_params, threads, pure=False,
+                                 key=f"skelfilter-{i}-{os.path.basename(path)}"): (path, out)
+                   for i, (path, out) in enumerate(todo)}
+        for future in as_completed(futures):
+            path, out = futures[future]
+            try:
+                row = future.result()
+            except Exception as exc:  # the worker died twice (KilledWorker) or the task could not run
+                row = {"input": path, "output": out, "status": "failed", "seconds": "", "peak_memory_mib": "",
+                       "voxels_changed": "", "error": _worker_error(exc), "bad_input": ""}
+            rows[path] = row
+            counts["done"] += 1
+            counts["failed"] += row["status"] == "failed"
+            if report:
+                report(row, counts)
+    finally:
+        if own:
+            cluster = client.cluster
+            client.close()
+            cluster.close()
+    return rows
+
+
+def _worker_error(exc):
+    if type(exc).__name__ == "KilledWorker":
+        return "its worker died, and again on a second try (out of memory? a crash?)"
+    return f"{type(exc).__name__}: {exc}"
+
+
+def _write_summary(out_dir, rows):
+    def write_csv(tmp):
+        with open(tmp, "w", newline="", encoding="utf-8") as f:
+            writer = csv.DictWriter(f, fieldnames=SUMMARY_FIELDS)
+            writer.writeheader()
+            writer.writerows(rows)
+
+    def write_json(tmp):
+        with open(tmp, "w", encoding="utf-8") as f:
+            json.dump(rows, f, indent=1)
+
+    mesh_files.atomic_write(os.path.join(out_dir, "summary.csv"), write_csv)
+    mesh_files.atomic_write(os.path.join(out_dir, "summary.json"), write_json)
+
+
+def progress_bar(stream=sys.stderr, width=30):
+    """A `denoise_many` ``report`` that draws a bar on a terminal, else prints a line per file."""
+    terminal = stream.isatty()
+
+    def report(row, counts):
+        done, total = counts["done"], counts["total"]
+        bar = "#" * round(width * done / total) + "-" * (width - round(width * done / total))
+        line = (f"[{bar}] {done}/{total}, {counts['failed']} failed: {os.path.basename(row['input'])} "
+                f"{row['status']}")
+        if terminal:
+            stream.write("\r" + line[:200].ljust(120) + ("\n" if done == total else ""))
+        else:
+            stream.write(line + (f" ({row['error']})" if row["error"] else "") + "\n")
+        stream.flush()
+
+    return report
+

@@ -1,0 +1,181 @@
+"""One input file to one output file, whatever their kinds: the work of ``skelfilter denoise``, shared
+with ``skelfilter batch``.
+
+The kind of a file comes from its name: a volume (NIfTI, NRRD, TIFF, .npy; see
+:mod:`skelfilter.io.volume_files`), a point cloud (PCD, XYZ, XYZN, PTS, or a PLY without faces; see
+:mod:`skelfilter.mesh.point_cloud`), else a mesh (PLY, OBJ, STL, OFF, GLB). A mesh comes out as a mesh; a
+volume as a volume (its format, grid, header and affine) or as a mesh in the scanner's world
+coordinates; a point cloud as a closed mesh or as its points moved onto it. Every path is checked
+before anything is read or computed.
+"""
+
+import os
+
+import numpy as np
+
+from skelfilter.core import pipeline
+from skelfilter.errors import InputError
+from skelfilter.io import mesh_files, volume_files
+from skelfilter.mesh import marching_cubes, point_cloud
+from skelfilter.mesh import pipeline as mesh_pipeline
+from skelfilter.params import VolumeParams
+from skelfilter.runtime.progress import Progress
+
+
+def file_kind(path):
+    """``volume``, ``points`` (PCD, XYZ, XYZN, PTS) or ``mesh``, from the name alone.
+
+    Raises
+    ------
+    InputError
+        None of these formats.
+    """
+    if volume_files.volume_format(path) is not None:
+        return "volume"
+    ext = os.path.splitext(str(path))[1].lower().lstrip(".")
+    if ext in mesh_files.MESH_FORMATS:
+        return "mesh"
+    if ext in point_cloud.POINT_FORMATS:
+        return "points"
+    raise InputError(f"{path}: unsupported format {ext!r} (meshes: {', '.join(mesh_files.MESH_FORMATS)}; volumes: "
+                     f"{', '.join(s.lstrip('.') for s in volume_files.VOLUME_SUFFIXES)}; point clouds: "
+                     f"{', '.join(point_cloud.POINT_FORMATS)})")
+
+
+def input_kind(path):
+    """`file_kind`, a PLY file without faces being a point cloud."""
+    kind = file_kind(path)
+    return "points" if kind == "mesh" and point_cloud.is_point_cloud(path) else kind
+
+
+# What each kind of input can become.
+OUTPUTS = {"mesh": ("mesh",), "volume": ("volume", "mesh"), "points": ("mesh", "points")}
+
+
+def check_paths(input_path, output_path, save_skeleton=None, points=False):
+    """Refuse an impossible pair of paths before anything runs; returns (input kind, output kind).
+
+    ``points``: a point cloud's output is its points moved onto the denoised surface (a PLY output
+    would otherwise be the mesh).
+
+    Raises
+    ------
+    InputError
+        An unsupported format, an output the input cannot become, an output that is the input or
+        sits in a missing folder, a skeleton file that is not a new .ply, or one asked of a volume.
+    """
+    kind_in, kind_out = input_kind(input_path), file_kind(output_path)
+    if points or (kind_in == "points" and kind_out == "points"):
+        if kind_in != "points" or os.path.splitext(str(output_path))[1].lower().lstrip(".") not in \
+                point_cloud.POINT_FORMATS:
+            raise InputError(f"{output_path}: moved points need a point cloud input and a point cloud output "
+                             f"({', '.join(point_cloud.POINT_FORMATS)})")
+        kind_out = "points"
+    if kind_out not in OUTPUTS[kind_in]:
+        raise InputError(f"{output_path}: a {kind_in} input gives a {' or a '.join(OUTPUTS[kind_in])} output")
+    mesh_files.check_output(output_path, [input_path])
+    if save_skeleton:
+        if kind_in != "mesh":
+            raise InputError("`save_skeleton` needs a mesh input")
+        mesh_files.check_output(save_skeleton, {input_path: "input", output_path: "output"}, ("ply",))
+    return kind_in, kind_out
+
+
+def denoise_file(input_path, output_path, params, volume_params=None, save_skeleton=None, progress=None,
+                 points=False):
+    """Denoise one file into another.
+
+    Parameters
+    ----------
+    input_path, output_path : str
+    params : DenoiseParams
+    volume_params : VolumeParams, optional
+        For a volume input: which voxels form the shape, the spacing.
+    save_skeleton : str, optional
+        A .ply point cloud of the skeleton (mesh input).
+    progress : Progress, optional
+    points : bool
+        For a point cloud input: write its points moved onto the denoised surface, attributes kept,
+        rather than the denoised mesh (see `check_paths`).
+
+    Returns
+    -------
+    dict
+        ``kind`` of the input, ``voxels_changed`` (voxels added or removed: on the grid a mesh is
+        voxelized on, on a volume's own grid),
+        and ``vertices`` and ``faces`` of a mesh output.
+    """
+    input_path, output_path = str(input_path), str(output_path)
+    kind_in, kind_out = check_paths(input_path, output_path, save_skeleton, points)
+    volume_params = volume_params or VolumeParams()
+    if kind_in != "volume" and volume_params != VolumeParams():
+        raise InputError(f"{input_path}: `label`, `iso` and `spacing` are for volume inputs")
+    progress = progress or Progress(enabled=False)
+    if kind_in == "volume":
+        return _denoise_volume_file(input_path, output_path, kind_out, params, volume_params, progress)
+    if kind_in == "points":
+        return _denoise_point_file(input_path, output_path, kind_out, params, progress)
+    mesh = mesh_files.load_mesh(input_path)
+    mesh_files.check_precision(mesh, output_path)
+    out, result, grid = mesh_pipeline.denoise_mesh_detailed(mesh, params, progress)
+    if save_skeleton and not result.stages:
+        raise InputError(f"`save_skeleton`: no skeleton was computed ({progress.notes[-1]}); "
+                         "`output_mesh` closed runs the voxel stage")
+    mesh_files.save_mesh(out, output_path, protect=[input_path])
+    if save_skeleton:
+        _save_skeleton(save_skeleton, result, grid, {input_path: "input", output_path: "output"})
+    return {"kind": "mesh", "voxels_changed": result.voxels_changed, "vertices": len(out.vertices),
+            "faces": len(out.faces)}
+
+
+def _denoise_volume_file(input_path, output_path, kind_out, params, volume_params, progress):
+    volume = volume_files.load_volume(input_path, volume_params.spacing)
+    mask = volume_files.select_mask(volume.data, volume_params.label, volume_params.iso)
+    result = pipeline.denoise_volume(mask, params, progress, spacing=volume.spacing)
+    if not result.mask.any():
+        raise InputError(f"{input_path}: nothing is left after denoising (the shape is thinner than the "
+                         "noise scale); lower `threshold`")
+    summary = {"kind": "volume", "voxels_changed": result.voxels_changed}
+    if kind_out == "volume":
+        data = (volume_files.merge_label(volume.data, mask, result.mask, volume_params.label)
+                if volume_params.label is not None else result.mask)
+        volume_files.save_volume(output_path, volume, data, protect=[input_path])
+        return summary
+    with progress.step("marching cubes"):
+        mesh = marching_cubes.field_to_world_mesh(result.field, volume.affine)
+    mesh_files.save_mesh(mesh, output_path, protect=[input_path])
+    return {**summary, "vertices": len(mesh.vertices), "faces": len(mesh.faces)}
+
+
+def _denoise_point_file(input_path, output_path, kind_out, params, progress):
+    """A point cloud: its Poisson solid, denoised to a new closed mesh (there is no input mesh to
+    keep), written as a mesh or as the points moved onto it."""
+    cloud = point_cloud.load_points(input_path)
+    with progress.step("Poisson surface"):
+        solid = point_cloud.points_to_mesh(cloud, input_path)
+    out, result, _ = mesh_pipeline.denoise_mesh_detailed(solid, params.with_(output_mesh="closed"), progress)
+    summary = {"kind": "points", "voxels_changed": result.voxels_changed}
+    if kind_out == "points":
+        with progress.step("points moved"):
+            point_cloud.save_points(point_cloud.move_points(cloud, out), output_path, protect=[input_path])
+        return summary
+    mesh_files.save_mesh(out, output_path, protect=[input_path])
+    return {**summary, "vertices": len(out.vertices), "faces": len(out.faces)}
+
+
+def _save_skeleton(path, result, grid, protect):
+    """The skeleton voxels of every stage as a PLY point cloud with their measures."""
+    points, props = [], {"quality": [], "d": [], "rho": [], "sigma_bar": [], "rho_plus": [], "kept": [],
+                         "stage": []}
+    for stage_id, name in enumerate(("foreground", "background")):
+        if name not in result.stages:
+            continue
+        s = result.stages[name].skeleton
+        ijk = np.stack(np.unravel_index(s.voxels, grid.shape), axis=1)
+        points.append(grid.to_world(ijk))
+        for key, values in (("quality", s.rho_plus), ("d", s.distance), ("rho", s.rho),
+                            ("sigma_bar", s.sigma_bar), ("rho_plus", s.rho_plus), ("kept", s.kept)):
+            props[key].append(values)
+        props["stage"].append(np.full(len(s.voxels), stage_id))
+    mesh_files.save_point_cloud_ply(path, np.concatenate(points), {k: np.concatenate(v) for k, v in props.items()},
+                            protect)

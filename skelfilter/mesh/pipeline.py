@@ -1,0 +1,223 @@
+"""The pipeline on triangle meshes: voxelize, the volume pipeline (:mod:`skelfilter.core.pipeline`), and
+back to a mesh: a new closed one by marching cubes, or the input's own with its vertices moved."""
+
+import warnings
+
+import numpy as np
+
+from skelfilter.core import noise, surface_field
+from skelfilter.core.pipeline import DenoiseResult, denoise_padded, padding_from, passes_through, resolve_params
+from skelfilter.errors import InputError, ParameterError, ResourceError
+from skelfilter.io.mesh_files import validate_mesh
+from skelfilter.mesh import marching_cubes, normal_filtering, output_choice, vertex_projection, voxelize
+from skelfilter.mesh.frame import Frame
+from skelfilter.params import NoiseParams, build, voxel_fields_given
+from skelfilter.runtime.memory import check_grid_fits
+from skelfilter.runtime.progress import Progress
+
+
+def _voxelize(mesh, resolution, padding, progress, padding_by, required=True):
+    """Occupancy of a mesh on its padded grid, memory checked before allocating (``padding_by``: the
+    parameters that set the padding, for the advice). An empty occupancy is refused if ``required``."""
+    grid = voxelize.grid_for_bounds(mesh.bounds, resolution, padding)
+    check_grid_fits(grid.shape, padding=padding, padding_from=padding_by)
+    with progress.step("voxelize"):
+        occupancy = voxelize.voxelize_on_grid(mesh, grid)
+    if required:
+        _require_inside(occupancy, mesh, grid, resolution)
+    return occupancy, grid
+
+
+def _require_inside(occupancy, mesh, grid, resolution):
+    if not occupancy.any():
+        raise InputError(f"the mesh encloses no voxel at resolution {resolution}: {voxelize.why_empty(mesh, grid)}")
+
+
+def denoise_mesh(mesh, params=None, progress=None, **overrides):
+    """Denoise a triangle mesh: voxelize, run the pipeline, marching cubes.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+    params : DenoiseParams, optional; keyword arguments override its fields.
+
+    Returns
+    -------
+    trimesh.Trimesh
+        Watertight mesh in the input's world coordinates.
+
+    References
+    ----------
+    .. [1] H. R. Schubert, "Salient edge preserving noise removal using surface skeletons", master
+           thesis, University of Groningen, 2016, §8.1.1.
+    .. [2] A. Telea, "Feature preserving smoothing of shapes using saliency skeletons",
+           Visualization in Medicine and Life Sciences II, Springer, 2012.
+    """
+    return denoise_mesh_detailed(mesh, params, progress, **overrides)[0]
+
+
+def denoise_mesh_detailed(mesh, params=None, progress=None, **overrides):
+    """Like :func:`denoise_mesh`, also returning the DenoiseResult and the Grid.
+
+    The DenoiseResult has no stages when the voxel stage did not run (an open input kept as it is).
+    The work is done in the mesh's unit frame (:mod:`skelfilter.mesh.frame`): the result does not
+    depend on the mesh's scale or position.
+    """
+    params = resolve_params(params, **overrides)
+    progress = progress or Progress(enabled=False)
+    frame = Frame.of(validate_mesh(mesh))
+    unit = frame.to_unit(mesh)
+    closed, kept_vertices, result, grid = _denoise_unit(unit, params, progress)
+    lost = _attributes(mesh) if closed is not None and params.output_mesh == "auto" else ""
+    if lost:
+        warnings.warn(f"the new closed mesh has no {lost}; output_mesh input keeps them "
+                      "(the input mesh with its vertices moved)", stacklevel=2)
+    out = frame.to_world(closed) if closed is not None else frame.moved(mesh, unit, kept_vertices)
+    return out, result, frame.grid_to_world(grid)
+
+
+def _denoise_unit(mesh, params, progress):
+    """`denoise_mesh_detailed` on a mesh in its unit frame: (a new closed mesh or None, the moved
+    vertices of ``mesh`` or None, the DenoiseResult, the Grid)."""
+    given = voxel_fields_given(params)
+    asked = [name for name in given if name != "resolution"]  # the resolution also tells solids from surfaces
+    if params.resolution is None:
+        params = params.with_(resolution=_fitting_resolution(mesh, params))
+        progress.note(f"resolution {params.resolution} voxels (from the mesh's mean edge length)")
+    occupancy, grid = _voxelize(mesh, params.resolution, params.padding_voxels, progress, padding_from(params),
+                                required=params.output_mesh == "closed")
+    output = params.output_mesh
+    skipped = None  # why the voxel stage does not run
+    fine = None
+    if output == "auto":
+        with progress.step("fine noise"):
+            fine = output_choice.fine_noise(mesh)
+        # Voxel-stage parameters given by the caller ask for the voxel stage: it runs.
+        if fine >= output_choice.FINE_NOISE and not asked:
+            skipped = (f"fine noise {fine:.3f} (from {output_choice.FINE_NOISE:g}): the input mesh comes back, "
+                       "smoothed by the fine pass")
+    if skipped is None and output != "closed":
+        with progress.step("solid check"):
+            solid = occupancy.any() and (
+                output_choice.is_closed(mesh.faces)
+                or output_choice.solid_share(occupancy, mesh, grid) >= output_choice.SOLID_SHARE)
+            if not solid:
+                skipped = ("the input is an open surface: its own mesh comes back, smoothed by the fine pass "
+                           "(the voxel stage needs a solid; the output mesh 'closed' makes one)")
+    if skipped is not None:
+        if asked:
+            raise ParameterError(f"{', '.join(asked)} would have no effect: {skipped}; output_mesh closed runs "
+                                 "the voxel stage on any input")
+        if given:
+            skipped += f" (resolution {params.resolution} was used only to tell a solid from a surface)"
+        progress.note(skipped)
+        result = DenoiseResult(mask=occupancy, field=None, timings=progress.timings)
+        return None, _kept_vertices(mesh, None, params, grid, progress, fine), result, grid
+    _require_inside(occupancy, mesh, grid, params.resolution)
+    result = denoise_padded(occupancy.copy(), params, progress)
+    result.voxels_changed = int(np.count_nonzero(result.mask != occupancy))
+    voxel_moves = output == "input"
+    if output == "auto":
+        output = "closed" if not passes_through(params, result) and result.voxels_changed else "input"
+        why = "noise at the skeleton scale removed" if output == "closed" else "no noise at the skeleton scale"
+        progress.note(f"output: {'a new closed mesh' if output == 'closed' else 'the input mesh'} ({why})")
+    if output == "closed":
+        if params.unchanged_surface == "input":
+            with progress.step("input surface"):
+                marching_cubes.keep_input_surface(result.field, result.mask, occupancy, mesh, grid)
+        del occupancy
+        with progress.step("marching cubes"):
+            return marching_cubes.field_to_mesh(result.field, grid), None, result, grid
+    vertices = _kept_vertices(mesh, (result, occupancy) if voxel_moves else None, params, grid, progress, fine)
+    return None, vertices, result, grid
+
+
+def _attributes(mesh):
+    """The per-vertex or per-face attributes of ``mesh`` that a new mesh cannot carry, in words."""
+    kind = getattr(mesh.visual, "kind", None)
+    return {"vertex": "vertex colours", "face": "face colours", "texture": "texture coordinates"}.get(kind, "")
+
+
+def _kept_vertices(mesh, voxels, params, grid, progress, fine=None):
+    """The input mesh's vertices, moved: onto the denoised surface where ``voxels`` (the
+    DenoiseResult and the input occupancy, or None) says the shape changed, then by the fine pass
+    unless nothing moved and the mesh has no fine noise (``fine``: its `output_choice.fine_noise`
+    when known)."""
+    # Vertices split along UV seams or by the file format move as one.
+    welded, inverse = np.unique(np.asarray(mesh.vertices, dtype=np.float64), axis=0, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    faces = inverse[np.asarray(mesh.faces, dtype=np.int64)]
+    vertices, moved = welded, np.zeros(len(welded), dtype=bool)
+    if voxels is not None:
+        result, occupancy = voxels
+        with progress.step("vertices moved"):
+            vertices, moved = vertex_projection.move_input_vertices(
+                welded, faces, result.mask, occupancy, result.field, surface_field.mask_field(occupancy), grid,
+                max_move=params.threshold_voxels / 2)
+    fine_pass = params.fine_pass == "on"
+    if fine_pass and not moved.any():
+        if fine is None:
+            with progress.step("fine noise"):
+                fine = output_choice.fine_noise(mesh)
+        if fine < output_choice.CLEAN_FINE_NOISE:
+            fine_pass = False
+            progress.note(f"fine noise {fine:.3f} (under {output_choice.CLEAN_FINE_NOISE:g}): no fine pass, "
+                          "the mesh comes back as it was")
+    if fine_pass:
+        with progress.step("fine pass"):
+            # The rim of an open surface stays where it was (measured on Nicolo0.2: both scores
+            # lower than with the rim smoothed, and the boundary exactly the input's).
+            rim = vertex_projection.boundary_vertices(faces, len(vertices))
+            smoothed, reference = normal_filtering.fine_pass(vertices, faces, movable=~rim)
+            # Faces keep the filtered normals' orientation, or the denoised surface's where
+            # vertices moved onto it.
+            near_moved = moved[faces].any(axis=1)
+            if near_moved.any():
+                reference[near_moved] = vertex_projection.outward_normals(
+                    grid.to_index(vertices[faces[near_moved]].mean(axis=1)), voxels[0].field)
+            vertices, folded = vertex_projection.unfold(smoothed, faces, reference)
+        if folded:
+            progress.note(f"{folded} faces stay folded (turned against the surface or without area)")
+    return vertices[inverse]
+
+
+def _fitting_resolution(mesh, params):
+    """`voxelize.auto_resolution`, lowered until the grid fits in memory (at least 16)."""
+    resolution = voxelize.auto_resolution(mesh)
+    while True:
+        trial = params.with_(resolution=resolution)
+        shape = voxelize.grid_for_bounds(mesh.bounds, resolution, trial.padding_voxels).shape
+        try:
+            check_grid_fits(shape)
+            return resolution
+        except ResourceError:
+            if resolution <= 16:
+                raise
+            resolution = max(16, int(resolution * 0.9))
+
+
+def noisy_mesh(mesh, params=None, progress=None, **overrides):
+    """The thesis' synthetic noise (§7.2) on a mesh's voxelization.
+
+    Returns
+    -------
+    (trimesh.Trimesh, noise.NoiseResult, voxelize.Grid)
+        The noisy mesh in world coordinates; the clean/noisy/bump/dent masks
+        over the grid, for metrics.
+
+    References
+    ----------
+    .. [1] H. R. Schubert, "Salient edge preserving noise removal using surface skeletons", master
+           thesis, University of Groningen, 2016, §7.2.
+    """
+    params = build(NoiseParams, params, **overrides)
+    progress = progress or Progress(enabled=False)
+    frame = Frame.of(validate_mesh(mesh))
+    clean, grid = _voxelize(frame.to_unit(mesh), params.resolution, params.padding_voxels, progress,
+                            "`h` and `r` (the padding is h + r + 10)")
+    with progress.step("noise"):
+        result = noise.add_noise(clean, p=params.p, r=params.r, h=params.h, l=params.l,
+                                 seed=params.seed, dents=params.dents)
+    with progress.step("marching cubes"):
+        out = marching_cubes.mask_to_mesh(result.noisy, grid)
+    return frame.to_world(out), result, frame.grid_to_world(grid)

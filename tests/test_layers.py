@@ -1,0 +1,86 @@
+"""The architecture, checked: every module lies in one layer and imports only its own layer and the
+layers below it; the core never touches meshes."""
+
+import ast
+import pathlib
+
+import pytest
+
+PACKAGE = pathlib.Path(__file__).resolve().parent.parent / "skelfilter"
+
+# Bottom to top; layers of one rank are siblings and may not import each other.
+RANKS = {
+    "errors": 0, "params": 1, "runtime": 2,
+    "core": 3, "io": 3,
+    "mesh": 4, "meshlab": 5,
+    "evaluation": 6, "jobs": 6,
+    "demo": 7, "cli": 8,
+}
+# What the core may import from outside skelfilter: arrays only.
+CORE_LIBRARIES = {"numpy", "scipy", "numba", "math", "dataclasses", "contextlib", "functools"}
+
+
+def _modules():
+    for path in sorted(PACKAGE.rglob("*.py")):
+        parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        yield ".".join(parts), path
+
+
+MODULES = dict(_modules())
+
+
+def _imports(name, path):
+    """The absolute names ``name`` imports."""
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            yield from (a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join(anchor + ([node.module] if node.module else []))
+            yield base
+            # ``from skelfilter.mesh import pipeline`` imports the module skelfilter.mesh.pipeline.
+            yield from (f"{base}.{a.name}" for a in node.names if f"{base}.{a.name}" in MODULES)
+
+
+def layer(name):
+    return name.split(".")[1] if name.count(".") else None
+
+
+def test_every_module_lies_in_a_known_layer():
+    assert {layer(n) for n in MODULES} - {None} <= set(RANKS)
+
+
+@pytest.mark.parametrize("name", [n for n in MODULES if layer(n)])
+def test_imports_go_down_only(name):
+    own = layer(name)
+    for target in _imports(name, MODULES[name]):
+        if not target.startswith("skelfilter"):
+            continue
+        assert target != "skelfilter", f"{name} imports the package's facade; import the module itself"
+        other = layer(target)
+        assert other == own or RANKS[other] < RANKS[own], f"{name} ({own}) imports {target} ({other})"
+
+
+@pytest.mark.parametrize("name", [n for n in MODULES if layer(n) == "core"])
+def test_the_core_is_arrays_only(name):
+    outside = {t.split(".")[0] for t in _imports(name, MODULES[name]) if t and not t.startswith("skelfilter")}
+    assert outside <= CORE_LIBRARIES, f"{name} imports {sorted(outside - CORE_LIBRARIES)}"
+
+
+def test_the_rule_catches_an_upward_import(tmp_path):
+    """The check itself can fail: a core module importing the mesh layer is caught."""
+    bad = tmp_path / "bad.py"
+    bad.write_text("from skelfilter.mesh import voxelize\nfrom ..io import mesh_files\n")
+    found = set(_imports("skelfilter.core.bad", bad))
+    assert "skelfilter.mesh.voxelize" in found and "skelfilter.io.mesh_files" in found
+    assert RANKS[layer("skelfilter.mesh.voxelize")] > RANKS["core"]
+
+
+def test_no_module_over_450_lines():
+    long = {n: len(p.read_text().splitlines()) for n, p in MODULES.items()}
+    assert {n: k for n, k in long.items() if k > 450} == {}
