@@ -1,21 +1,27 @@
-"""Everyday noise: skelfilter against MeshLab Taubin and pygel3d on the literature's pairs and on
-Gaussian noise of our own.
+"""Everyday noise: skelfilter against MeshLab's Taubin and Two-step, pygel3d, MeshLib and the published
+state of the art, on the literature's pairs and on Gaussian noise of our own.
 
-Two parts, each a table of the field's two scores (`skelfilter.evaluation.metrics.literature_errors`: mean
-face-normal angle in degrees / E_v in mean edge lengths) and skelfilter's time:
+Three parts, each a table of the field's two scores (`skelfilter.evaluation.metrics.literature_errors`:
+θ, the literature's mean face-normal angle in degrees, and E_v in mean edge lengths), this project's
+area-weighted angle beside them, and skelfilter's time:
 
 - ``own``: Gaussian noise along the vertex normals (0.2, 0.3, 0.5, 0.7 mean edge lengths, seed 11)
   on fandisk, the rocker arm and the bunny (the tuning shapes the fine pass was chosen on) and on
   spot and twelve (held out).
-- ``literature``: the four pairs of ``shared/data/literature`` (never used to choose anything),
-  the acceptance of the everyday-scan issue: skelfilter without flags below MeshLab Taubin (its
-  defaults, ``skelfilter/evaluation/comparison/scripts/taubin.mlx``) on both scores on every pair, and below pygel3d's
-  ``hmesh.anisotropic_smooth`` (10 iterations) on the two fandisk pairs.
+- ``literature``: the four pairs of ``benchmarks/data/literature`` (never used to choose anything).
+- ``sota``: the two pairs of ``benchmarks/data/sota``, with the result their method's authors
+  published (GCN-Denoiser, MeshTGV); never used to choose anything.
 
-    python benchmarks/literature.py [--part own|literature|all] [--out FILE.md] [--pictures DIR]
+Rivals, each with the settings it ships with: MeshLab's Taubin and Two-step (their defaults,
+``skelfilter/evaluation/comparison/scripts/taubin.mlx`` and ``benchmarks/data/two_step_defaults.mlx``; the
+thesis' Two-step, 40 steps for voxel meshes, flattens these meshes to 40°), pygel3d's
+``hmesh.anisotropic_smooth`` (10 iterations), MeshLib's
+``meshDenoiseViaNormals`` (its defaults).
+
+    python benchmarks/literature.py [--part own|literature|sota|all] [--out FILE.md] [--pictures DIR]
 
 ``--pictures`` also draws two pairs (noisy, Taubin, pygel3d, skelfilter, clean; overview and close-up),
-the README's ``docs/everyday-*.png``.
+the docs' ``docs/everyday-*.png``.
 """
 
 import argparse
@@ -32,7 +38,7 @@ sys.path.insert(0, ROOT)
 
 from skelfilter.errors import SkelfilterError  # noqa: E402
 from skelfilter.evaluation import metrics  # noqa: E402
-from skelfilter.evaluation.comparison.methods import pygel3d_smooth  # noqa: E402
+from skelfilter.evaluation.comparison.methods import meshlib_denoise, pygel3d_smooth  # noqa: E402
 from skelfilter.io import mesh_files as io  # noqa: E402
 from skelfilter.mesh import pipeline as mesh_pipeline  # noqa: E402
 from skelfilter.meshlab import scripts as meshlab  # noqa: E402
@@ -41,12 +47,17 @@ from skelfilter.runtime.progress import Progress  # noqa: E402
 SHAPES = os.path.join(ROOT, "skelfilter", "data")  # the clean shapes (package data)
 PAIRS_DATA = os.path.join(ROOT, "benchmarks", "data", "literature")  # see benchmarks/data/README.md
 PAIRS = ("Fandisk0.3", "Fandisk0.7", "Nicolo0.2", "Bunny0.2")
+SOTA_DATA = os.path.join(ROOT, "benchmarks", "data", "sota")
+SOTA = {"gcn-trimstar-n3": "GCN-Denoiser", "tgv-block": "MeshTGV"}
 OWN_SHAPES = {"fandisk": "fandisk.obj", "rocker-arm": "rocker-arm.obj", "bunny": "stanford-bunny.obj",
               "spot": "spot.obj", "twelve": os.path.join("twelve-impulsive", "clean.obj")}
 HELD_OUT = ("spot", "twelve")
 LEVELS = (0.2, 0.3, 0.5, 0.7)
 SEED = 11
-TAUBIN = os.path.join(ROOT, "skelfilter", "evaluation", "comparison", "scripts", "taubin.mlx")
+BASELINES = os.path.join(ROOT, "skelfilter", "evaluation", "comparison", "scripts")
+TAUBIN = os.path.join(BASELINES, "taubin.mlx")
+TWO_STEP = os.path.join(ROOT, "benchmarks", "data", "two_step_defaults.mlx")  # MeshLab's defaults
+RIVALS = ("taubin", "two-step", "pygel3d", "meshlib")
 
 
 def gaussian_noise(clean, level, seed=SEED):
@@ -60,41 +71,48 @@ def gaussian_noise(clean, level, seed=SEED):
 
 # Pictures for the README: pair -> (view direction, centre -> eye; up).
 PICTURES = {"Fandisk0.7": ((1.0, -1.2, 0.9), (0.0, 0.0, 1.0)),
+            "tgv-block (MeshTGV)": ((1.0, -1.1, 0.9), (0.0, 0.0, 1.0)),
+            "gcn-trimstar-n3 (GCN-Denoiser)": ((0.3, -1.0, 0.8), (0.0, 0.0, 1.0)),
             "Nicolo0.2": ((-0.77, 0.59, -0.24), (0.0, 0.0, 1.0))}
 CELL = (380, 340)
 
 
-def results(noisy, clean):
-    """The result meshes of Taubin, pygel3d (None when it fails) and skelfilter, with skelfilter's
-    time and notes."""
-    taubin = meshlab.run_filter_script(noisy, TAUBIN)
+def _rival(name, noisy):
+    """A rival's result mesh, or None when it fails (a library's crash is a row entry, not the end)."""
     try:
-        pygel = pygel3d_smooth(noisy)
-    except SkelfilterError as exc:  # a library's crash is a row entry, not the end of the run
-        pygel = None
-        print(f"  pygel3d failed: {exc}", file=sys.stderr)
+        if name == "taubin":
+            return meshlab.run_filter_script(noisy, TAUBIN)
+        if name == "two-step":
+            return meshlab.run_filter_script(noisy, TWO_STEP)
+        return pygel3d_smooth(noisy) if name == "pygel3d" else meshlib_denoise(noisy)
+    except SkelfilterError as exc:
+        print(f"  {name} failed: {exc}", file=sys.stderr)
+        return None
+
+
+def score_row(name, noisy, clean, pictures=None, published=None):
+    """The scores of noisy, every rival, the published result (when given) and skelfilter on one
+    pair; pictures in the folder ``pictures`` for the pairs of `PICTURES`."""
+    rivals = {r: _rival(r, noisy) for r in RIVALS}
     progress = Progress(enabled=False)
     start = time.perf_counter()
     out = mesh_pipeline.denoise_mesh(noisy, progress=progress)
-    return taubin, pygel, out, time.perf_counter() - start, "; ".join(progress.notes)
-
-
-def score_row(name, noisy, clean, pictures=None):
-    """The scores of noisy, Taubin, pygel3d and skelfilter on one pair; pictures in the folder
-    ``pictures`` for the pairs of `PICTURES`."""
-    taubin, pygel, out, seconds, notes = results(noisy, clean)
-    row = {"case": name, "noisy": metrics.literature_errors(noisy, clean), "seconds": seconds, "notes": notes,
-           "taubin": metrics.literature_errors(taubin, clean),
-           "pygel3d": None if pygel is None else metrics.literature_errors(pygel, clean),
-           "skelfilter": metrics.literature_errors(out, clean)}
+    seconds = time.perf_counter() - start
+    row = {"case": name, "seconds": seconds, "notes": "; ".join(progress.notes),
+           "noisy": metrics.literature_errors(noisy, clean), "skelfilter": metrics.literature_errors(out, clean),
+           "published": None if published is None else metrics.literature_errors(published, clean)}
+    row.update({r: None if m is None else metrics.literature_errors(m, clean) for r, m in rivals.items()})
     if pictures and name in PICTURES:
-        pictures_of(name, [noisy, taubin, pygel, out, clean], row, os.path.join(pictures, f"everyday-{name}.png"))
+        second = ("published", published) if published is not None else ("taubin", rivals["taubin"])
+        columns = [("noisy", noisy), second, ("pygel3d", rivals["pygel3d"]), ("skelfilter", out), ("clean", clean)]
+        pictures_of(name, columns, row, os.path.join(pictures, f"everyday-{name.split()[0]}.png"))
     return row
 
 
-def pictures_of(name, meshes, row, path):
-    """An overview and a close-up of a sharp edge (noisy, Taubin, pygel3d, skelfilter, clean), each
-    cell drawn by `skelfilter.evaluation.comparison.render` with one camera per row, titled with its scores."""
+def pictures_of(name, columns, row, path):
+    """An overview and a close-up of a sharp edge, one column per ``(key, mesh)`` of ``columns`` (the
+    clean mesh last), each cell drawn by `skelfilter.evaluation.comparison.render` with one camera
+    per row, titled with its scores."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -103,10 +121,11 @@ def pictures_of(name, meshes, row, path):
     from skelfilter.evaluation.comparison import render
 
     view, up = PICTURES[name]
+    meshes = [mesh for _, mesh in columns]
     overview = render.camera_for(meshes[-1], view, up)
     cameras = (overview, render.closeup_camera(meshes[-1], overview))
-    titles = [f"noisy {_cell(row['noisy'])}", f"MeshLab Taubin {_cell(row['taubin'])}",
-              f"pygel3d {_cell(row['pygel3d'])}", f"skelfilter {_cell(row['skelfilter'])}", "clean"]
+    labels = dict(COLUMNS, skelfilter="skelfilter")
+    titles = [f"{labels[key]} {_cell(row[key])}" for key, _ in columns[:-1]] + ["clean"]
     fig, axes = plt.subplots(2, len(meshes), figsize=(CELL[0] / 100 * len(meshes), 2 * CELL[1] / 100 + 0.6), dpi=100)
     with tempfile.TemporaryDirectory() as work:
         for r, camera in enumerate(cameras):
@@ -120,34 +139,47 @@ def pictures_of(name, meshes, row, path):
                 ax.imshow(plt.imread(cell))
                 if r == 0:
                     ax.set_title(title, fontsize=9)
-    fig.suptitle(f"{name}: mean normal angle / E_v; bottom row: close-up of a sharp edge", fontsize=11)
+    fig.suptitle(f"{name}: θ / E_v; bottom row: close-up of a sharp edge", fontsize=11)
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
 
 
 def _cell(value):
-    return "–" if value is None else f"{value[0]:.2f}° / {value[1]:.3f}"
+    return "–" if value is None else f"{value.theta:.2f}° / {value.e_v:.3f}"
+
+
+COLUMNS = (("noisy", "noisy"), ("published", "published"), ("taubin", "MeshLab Taubin"),
+           ("two-step", "MeshLab Two-step"), ("pygel3d", "pygel3d"), ("meshlib", "MeshLib"))
 
 
 def table(rows, title):
-    lines = [f"### {title}", "", "| case | noisy | MeshLab Taubin | pygel3d anisotropic | skelfilter | time (s) |",
-             "|---|---|---|---|---|---|"]
+    """A Markdown table: θ / E_v per method (the published column only where there is one), then
+    skelfilter's and the noisy input's area-weighted angle, and skelfilter's time."""
+    columns = [(k, label) for k, label in COLUMNS if any(r[k] is not None for r in rows)]
+    head = [label for _, label in columns] + ["skelfilter", "θ area-weighted: noisy / skelfilter", "time (s)"]
+    lines = [f"### {title}", "", "θ (the literature's) / E_v:", "", "| case | " + " | ".join(head) + " |",
+             "|---" * (len(head) + 1) + "|"]
     for r in rows:
-        lines.append(f"| {r['case']} | {_cell(r['noisy'])} | {_cell(r['taubin'])} | {_cell(r['pygel3d'])} | "
-                     f"**{_cell(r['skelfilter'])}** | {r['seconds']:.1f} |")
-    beat = sum(r["skelfilter"][0] < r["taubin"][0] and r["skelfilter"][1] < r["taubin"][1] for r in rows)
-    lines += ["", f"Below Taubin on both scores: {beat}/{len(rows)}.", ""]
+        area = f"{r['noisy'].theta_area:.2f}° / {r['skelfilter'].theta_area:.2f}°"
+        cells = [_cell(r[k]) for k, _ in columns] + [f"**{_cell(r['skelfilter'])}**", area, f"{r['seconds']:.1f}"]
+        lines.append(f"| {r['case']} | " + " | ".join(cells) + " |")
+    lines.append("")
+    for k, label in columns[1:]:
+        beat = sum(r[k] is not None and r["skelfilter"].theta < r[k].theta and r["skelfilter"].e_v < r[k].e_v
+                   for r in rows)
+        lines.append(f"- below {label} on both scores: {beat}/{len(rows)}")
+    lines.append("")
     return "\n".join(lines)
 
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--part", choices=("own", "literature", "all"), default="all")
+    p.add_argument("--part", choices=("own", "literature", "sota", "all"), default="all")
     p.add_argument("--out", help="also write the tables to this Markdown file")
     p.add_argument("--pictures", help="folder for the close-ups (e.g. docs)")
     args = p.parse_args(argv)
-    out = ["# Everyday noise: mean normal angle / E_v (mean edge lengths)", ""]
+    out = ["# Everyday noise: θ (degrees) / E_v (mean edge lengths)", ""]
     if args.part in ("own", "all"):
         for split, names in (("tuning", [s for s in OWN_SHAPES if s not in HELD_OUT]), ("held-out", HELD_OUT)):
             rows = []
@@ -165,6 +197,15 @@ def main(argv=None):
                                   io.load_mesh(os.path.join(folder, "clean.obj")), args.pictures))
             print(f"{pair}: {_cell(rows[-1]['skelfilter'])} ({rows[-1]['notes']})", file=sys.stderr, flush=True)
         out.append(table(rows, "The literature's pairs (held out)"))
+    if args.part in ("sota", "all"):
+        rows = []
+        for pair, method in SOTA.items():
+            folder = os.path.join(SOTA_DATA, pair)
+            noisy, clean, published = (io.load_mesh(os.path.join(folder, f"{n}.obj"))
+                                       for n in ("noisy", "clean", "published"))
+            rows.append(score_row(f"{pair} ({method})", noisy, clean, args.pictures, published))
+            print(f"{pair}: {_cell(rows[-1]['skelfilter'])} ({rows[-1]['notes']})", file=sys.stderr, flush=True)
+        out.append(table(rows, "Published state of the art (held out)"))
     text = "\n".join(out)
     print(text)
     if args.out:

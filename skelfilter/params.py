@@ -135,6 +135,14 @@ class DenoiseParams:
         "pits removed; 'preset': the preset's (default: on; thesis: off)",
         choices=("preset", "on", "off"),
     )
+    normal_filter: str = _p(
+        "adaptive",
+        "Fine pass normal filter",
+        "how the fine pass filters a mesh's face normals: 'adaptive' (bilateral filtering, Zheng et al. "
+        "2011, blended towards guided filtering, Zhang et al. 2015, where the surface is piecewise flat, "
+        "which keeps creases sharp) or 'bilateral' (bilateral filtering alone, the first fine pass)",
+        choices=("adaptive", "bilateral"),
+    )
     padding: int | None = _p(
         None,
         "Padding",
@@ -360,7 +368,7 @@ class DenoiseParams:
 
 
 # The fields a mesh reads outside the voxel stage (all the others are the voxel stage's).
-MESH_FIELDS = ("preset", "output_mesh", "fine_pass")
+MESH_FIELDS = ("preset", "output_mesh", "fine_pass", "normal_filter")
 
 
 def voxel_fields_given(params):

@@ -1,4 +1,5 @@
 import math
+import os
 
 import numpy as np
 import pytest
@@ -7,6 +8,7 @@ import trimesh
 from skelfilter.core.noise import add_noise
 from skelfilter.errors import InputError, ParameterError
 from skelfilter.evaluation import metrics
+from skelfilter.io import mesh_files
 from skelfilter.mesh.marching_cubes import mask_to_mesh
 from skelfilter.mesh.voxelize import Grid
 
@@ -95,6 +97,30 @@ def test_normal_error_zero_for_identical_and_known_for_rotated():
     r.apply_transform(trimesh.transformations.rotation_matrix(np.radians(10), [0, 0, 1], [0.5, 0.5, 0.5]))
     # The four side faces turn by 10 degrees, top and bottom not: 4 * 10 / 6 on equal areas.
     assert metrics.normal_error(r, a) == pytest.approx(40 / 6, abs=1e-6)
+
+
+SOTA = os.path.join(os.path.dirname(__file__), "..", "benchmarks", "data", "sota")
+
+
+@pytest.mark.parametrize("pair, noisy, published", [("gcn-trimstar-n3", (28.82, 0.306), (5.32, 0.082)),
+                                                   ("tgv-block", (22.64, 0.214), (2.85, 0.069))])
+def test_literature_scores_match_the_authors_figures(pair, noisy, published):
+    """θ and E_v as the field's released code computes them, on the two pairs whose authors published
+    their scores (benchmarks/data/README.md)."""
+    clean = mesh_files.load_mesh(os.path.join(SOTA, pair, "clean.obj"))
+    for name, (theta, e_v) in (("noisy", noisy), ("published", published)):
+        scores = metrics.literature_errors(mesh_files.load_mesh(os.path.join(SOTA, pair, f"{name}.obj")), clean)
+        assert scores.theta == pytest.approx(theta, abs=0.005) and scores.e_v == pytest.approx(e_v, abs=0.0005)
+
+
+def test_literature_theta_is_index_matched_and_unweighted_else_nearest():
+    clean = trimesh.creation.icosphere(2)
+    tilted = clean.copy()
+    tilted.vertices[clean.faces[0]] += 0.05 * clean.face_normals[0] + [0.03, 0.0, 0.0]
+    angle = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", tilted.face_normals, clean.face_normals), -1, 1)))
+    assert metrics.literature_normal_error(tilted, clean) == pytest.approx(angle.mean())  # plain mean, same index
+    shuffled = trimesh.Trimesh(tilted.vertices, tilted.faces[::-1], process=False)  # other faces: the nearest
+    assert metrics.literature_normal_error(shuffled, clean) == pytest.approx(angle.mean(), rel=1e-6)
 
 
 def test_sharp_edge_error_zero_for_the_cube_positive_when_smoothed():

@@ -24,7 +24,7 @@ from skelfilter.core import (
 from skelfilter.core import spacing as voxel_spacing
 from skelfilter.core.distance import distance_and_features
 from skelfilter.core.neighbourhood import bounding_box, unravel
-from skelfilter.errors import InputError
+from skelfilter.errors import InputError, ParameterError
 from skelfilter.params import DenoiseParams, VolumeParams, build
 from skelfilter.runtime.memory import check_grid_fits
 from skelfilter.runtime.progress import Progress
@@ -314,6 +314,8 @@ def denoise_volume(volume, params=None, progress=None, spacing=None, affine=None
            Visualization in Medicine and Life Sciences II, Springer, 2012.
     """
     params = resolve_params(params, **overrides)
+    if params.normal_filter != "adaptive":
+        raise ParameterError("`normal_filter` is for meshes: a volume's fine pass smooths the mask itself")
     volume = np.asarray(volume)
     if volume.ndim != 3:
         raise InputError(f"a volume must be 3-D, got shape {volume.shape}")

@@ -1,11 +1,10 @@
-"""The fine pass: bilateral filtering of face normals, then vertices moved to fit them.
+"""Normal filtering on meshes: bilateral filtering of face normals, vertices moved to fit them.
 
-Fine two-sided noise (a scanner's, or what the voxel stage leaves at the scale of a voxel) is
-removed on the mesh itself, at the input's own resolution, without rounding its sharp edges: each
-face normal is replaced by an average of its neighbours' normals weighted by distance and by
+Each face normal is replaced by an average of its neighbours' normals weighted by distance and by
 normal similarity (a bilateral filter on the normal field, Zheng et al. 2011, eq. 4), so normals
 across a sharp edge do not mix; the vertices then move to fit the filtered normals in the least
-squares sense (Sun et al. 2007, eq. 5). Faces are neighbours when they share a vertex.
+squares sense (Sun et al. 2007, eq. 5). Faces are neighbours when they share a vertex. The fine
+pass (:mod:`skelfilter.mesh.fine_pass`) composes these.
 
 Everything works on flat arrays: the face neighbourhood is one sparse matrix, every iteration a
 handful of vectorized products over its entries.
@@ -49,7 +48,7 @@ def face_neighbours(faces, n_vertices, subset=None):
     return i[other].astype(np.int64), shared.col[other].astype(np.int64)
 
 
-def _face_geometry(vertices, faces):
+def face_geometry(vertices, faces):
     """Unit normals (zero for degenerate faces), areas and centroids of the faces."""
     corners = vertices[faces]
     cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
@@ -60,10 +59,11 @@ def _face_geometry(vertices, faces):
 
 def face_normals(vertices, faces):
     """Unit face normals (zero for degenerate faces)."""
-    return _face_geometry(np.asarray(vertices, dtype=np.float64), faces)[0]
+    return face_geometry(np.asarray(vertices, dtype=np.float64), faces)[0]
 
 
-def _normalize(vectors):
+def normalize(vectors):
+    """Unit vectors; zero rows stay zero."""
     length = np.linalg.norm(vectors, axis=1, keepdims=True)
     return np.divide(vectors, length, out=np.zeros_like(vectors), where=length > 0)
 
@@ -100,7 +100,7 @@ def bilateral_normals(normals, areas, centroids, pairs, sigma_r, iterations):
         summed = areas[:, None] * normals
         for axis in range(3):
             summed[:, axis] += np.bincount(i, weights=weight * normals[j, axis], minlength=m)
-        normals = _normalize(summed)
+        normals = normalize(summed)
     return normals
 
 
@@ -176,61 +176,3 @@ def noise_level(normals, pairs):
     smallest = np.full(len(normals), np.inf)  # faces without pairs (outside a subset) stay infinite
     np.minimum.at(smallest, i, np.linalg.norm(normals[i] - normals[j], axis=1))
     return float(np.median(smallest[np.isfinite(smallest)]))
-
-
-# The fine pass's settings at the two ends of the noise level (`noise_level`), linear in between:
-# (noise level, sigma_r / noise level, normal iterations, vertex iterations). Chosen on Gaussian
-# noise of 0.2-0.7 mean edge lengths along the normals of fandisk, the rocker arm and the bunny
-# (benchmarks/literature.py); light noise on organic shapes wants few iterations and a wide range
-# kernel, heavy noise on flat faces many iterations and a narrow one.
-SCHEDULE = ((0.122, 4.5, 4, 4), (0.2, 2.5, 16, 10))
-# Uniform-Laplacian steps of the low-pass that takes the drift out of the vertex displacement.
-DRIFT_STEPS = 10
-# The narrowest range kernel: a clean mesh (noise level 0) only mixes parallel normals.
-MIN_SIGMA_R = 1e-3
-
-
-def schedule(level):
-    """``(sigma_r, normal_iterations, vertex_iterations)`` for a `noise_level`."""
-    (lo, k_lo, n_lo, v_lo), (hi, k_hi, n_hi, v_hi) = SCHEDULE
-    t = min(max((level - lo) / (hi - lo), 0.0), 1.0)
-    k = k_lo + t * (k_hi - k_lo)
-    return max(k * level, MIN_SIGMA_R), int(round(n_lo + t * (n_hi - n_lo))), int(round(v_lo + t * (v_hi - v_lo)))
-
-
-def fine_pass(vertices, faces, movable=None):
-    """Feature-preserving smoothing of a mesh's vertices, its strength set by the noise it measures.
-
-    `bilateral_normals` with the `schedule` of the mesh's `noise_level`, then `fit_vertices`. Fitting
-    vertices to the planes of their faces pulls curved parts inwards (each vertex of a convex part
-    lies above its faces' centroids); that drift is smooth while the noise is not, so the low-pass
-    of the displacement (`DRIFT_STEPS` uniform-Laplacian steps) is taken back out.
-
-    Parameters
-    ----------
-    vertices : (n, 3) float array
-    faces : (m, 3) int array
-    movable : (n,) bool array, optional
-        Vertices allowed to move.
-
-    Returns
-    -------
-    vertices : (n, 3) float array
-        The moved vertices (the faces are unchanged).
-    normals : (m, 3) float array
-        The filtered face normals the vertices were fitted to.
-    """
-    vertices = np.asarray(vertices, dtype=np.float64)
-    faces = np.asarray(faces, dtype=np.int64)
-    normals, areas, centroids = _face_geometry(vertices, faces)
-    pairs = face_neighbours(faces, len(vertices))
-    sigma_r, normal_iterations, vertex_iterations = schedule(noise_level(normals, pairs))
-    filtered = bilateral_normals(normals, areas, centroids, pairs, sigma_r, normal_iterations)
-    moved = fit_vertices(vertices, faces, filtered, vertex_iterations, movable)
-    average = vertex_adjacency(faces, len(vertices))
-    drift = moved - vertices
-    for _ in range(DRIFT_STEPS):
-        drift = average @ drift
-    if movable is not None:
-        drift[~movable] = 0.0
-    return moved - drift, filtered

@@ -9,7 +9,7 @@ from skelfilter.core import noise, surface_field
 from skelfilter.core.pipeline import DenoiseResult, denoise_padded, padding_from, passes_through, resolve_params
 from skelfilter.errors import InputError, ParameterError, ResourceError
 from skelfilter.io.mesh_files import validate_mesh
-from skelfilter.mesh import marching_cubes, normal_filtering, output_choice, vertex_projection, voxelize
+from skelfilter.mesh import fine_pass, marching_cubes, output_choice, vertex_projection, voxelize
 from skelfilter.mesh.frame import Frame
 from skelfilter.params import NoiseParams, build, voxel_fields_given
 from skelfilter.runtime.memory import check_grid_fits
@@ -154,21 +154,22 @@ def _kept_vertices(mesh, voxels, params, grid, progress, fine=None):
             vertices, moved = vertex_projection.move_input_vertices(
                 welded, faces, result.mask, occupancy, result.field, surface_field.mask_field(occupancy), grid,
                 max_move=params.threshold_voxels / 2)
-    fine_pass = params.fine_pass == "on"
-    if fine_pass and not moved.any():
+    smoothing = params.fine_pass == "on"
+    if smoothing and not moved.any():
         if fine is None:
             with progress.step("fine noise"):
                 fine = output_choice.fine_noise(mesh)
         if fine < output_choice.CLEAN_FINE_NOISE:
-            fine_pass = False
+            smoothing = False
             progress.note(f"fine noise {fine:.3f} (under {output_choice.CLEAN_FINE_NOISE:g}): no fine pass, "
                           "the mesh comes back as it was")
-    if fine_pass:
+    if smoothing:
         with progress.step("fine pass"):
             # The rim of an open surface stays where it was (measured on Nicolo0.2: both scores
             # lower than with the rim smoothed, and the boundary exactly the input's).
             rim = vertex_projection.boundary_vertices(faces, len(vertices))
-            smoothed, reference = normal_filtering.fine_pass(vertices, faces, movable=~rim)
+            smoothed, reference = fine_pass.fine_pass(vertices, faces, movable=~rim,
+                                                      normal_filter=params.normal_filter)
             # Faces keep the filtered normals' orientation, or the denoised surface's where
             # vertices moved onto it.
             near_moved = moved[faces].any(axis=1)

@@ -11,9 +11,11 @@ from skelfilter.evaluation.metrics.mesh_metrics import mesh_metrics
 from skelfilter.evaluation.metrics.surface_distances import (
     N_SAMPLES,
     SEED,
+    LiteratureScores,
     chamfer_distance,
     hausdorff_distance,
     literature_errors,
+    literature_normal_error,
     normal_error,
     pass_through,
     sharp_edge_error,
@@ -43,9 +45,10 @@ from skelfilter.evaluation.metrics.volumetric import (
 )
 
 __all__ = [
-    "GENUS_RESOLUTION", "N_SAMPLES", "SEED", "chamfer_distance", "closed_manifold_genus", "genus",
-    "geodesic_errors", "hausdorff_distance", "is_edge_manifold", "literature_errors", "mesh_metrics",
-    "noise_removed", "normal_error", "pass_through", "reconstruction_error", "sharp_edge_error",
-    "sharp_edges", "shrinkage", "skeleton_error", "skeleton_false_positive_rate", "surface_distances",
-    "thin_parts", "thin_parts_kept", "vertex_distances", "voxel_genus", "volumetric_iou",
+    "GENUS_RESOLUTION", "N_SAMPLES", "SEED", "LiteratureScores", "chamfer_distance",
+    "closed_manifold_genus", "genus", "geodesic_errors", "hausdorff_distance", "is_edge_manifold",
+    "literature_errors", "literature_normal_error", "mesh_metrics", "noise_removed", "normal_error",
+    "pass_through", "reconstruction_error", "sharp_edge_error", "sharp_edges", "shrinkage",
+    "skeleton_error", "skeleton_false_positive_rate", "surface_distances", "thin_parts",
+    "thin_parts_kept", "vertex_distances", "volumetric_iou", "voxel_genus",
 ]
