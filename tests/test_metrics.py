@@ -185,7 +185,8 @@ def test_mesh_metrics_of_the_clean_and_the_noisy_mesh(noisy_box):
     noise, grid, clean, noisy = noisy_box
     same = metrics.mesh_metrics(clean, clean, grid, noise=noise, n_samples=N)
     assert same["chamfer"] < 1e-4 and same["hausdorff_95"] < 1e-4 and same["hausdorff_max"] < 1e-4
-    assert same["normal_error_deg"] < 1e-3 and same["iou"] == 1.0 and same["shrinkage"] == 0.0
+    assert same["normal_error_deg"] < 1e-3 and same["theta_deg"] < 1e-3
+    assert same["iou"] == 1.0 and same["shrinkage"] == 0.0
     assert same["noise_removed"] == 1.0 and same["sharp_edges"] > 0 and same["sharp_edge_max"] < 1e-6
     assert same["watertight"] and same["edge_manifold"] and same["faces"] == len(clean.faces)
     worse = metrics.mesh_metrics(noisy, clean, grid, noise=noise, n_samples=N)

@@ -23,6 +23,7 @@ METRICS = {
     "hausdorff_95": ("Hausdorff 95% (vox)", -1, "{:.2f}"),
     "hausdorff_max": ("Hausdorff max (vox)", -1, "{:.2f}"),
     "normal_error_deg": ("normal error (°)", -1, "{:.1f}"),
+    "theta_deg": ("θ, the literature's (°)", -1, "{:.1f}"),
     "iou": ("IoU", +1, "{:.4f}"),
     "shrinkage": ("clean lost", -1, "{:.2%}"),
     "sharp_edge_mean": ("sharp-edge error (vox)", -1, "{:.2f}"),

@@ -182,8 +182,8 @@ def versions():
 
 
 METRIC_COLUMNS = ("noise_removed", "bumps_removed", "dents_removed", "chamfer", "hausdorff_95", "hausdorff_max",
-                  "normal_error_deg", "iou", "shrinkage", "sharp_edge_mean", "sharp_edge_max", "watertight",
-                  "edge_manifold", "faces")
+                  "normal_error_deg", "theta_deg", "iou", "shrinkage", "sharp_edge_mean", "sharp_edge_max",
+                  "watertight", "edge_manifold", "faces")
 
 
 def _write_tables(results, out_dir):

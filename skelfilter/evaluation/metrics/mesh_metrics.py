@@ -8,6 +8,7 @@ from skelfilter.errors import InputError
 from skelfilter.evaluation.metrics.surface_distances import (
     N_SAMPLES,
     SEED,
+    literature_normal_error,
     normal_error,
     sharp_edge_error,
     surface_distances,
@@ -57,7 +58,8 @@ def mesh_metrics(result, clean, grid, noise=None, reach=6.1, sharp_angle=30.0, n
     -------
     dict
         ``chamfer``, ``hausdorff_95``, ``hausdorff_max`` (voxels),
-        ``normal_error_deg``, ``iou``, ``shrinkage``, ``sharp_edge_mean``,
+        ``normal_error_deg`` (area-weighted, against the closest clean face), ``theta_deg`` (the
+        literature's θ: `literature_normal_error`), ``iou``, ``shrinkage``, ``sharp_edge_mean``,
         ``sharp_edge_max`` (voxels), ``sharp_edges`` (count), ``watertight``,
         ``edge_manifold``, ``faces``, and with ``noise`` also
         ``noise_removed``, ``bumps_removed``, ``dents_removed``. When the
@@ -86,6 +88,7 @@ def mesh_metrics(result, clean, grid, noise=None, reach=6.1, sharp_angle=30.0, n
         "hausdorff_95": h95,
         "hausdorff_max": hmax,
         "normal_error_deg": normal_error(result, clean, clean_surface=cs),
+        "theta_deg": literature_normal_error(result, clean, clean_surface=cs),
         "iou": mask_iou(v_result, v_clean),
         "shrinkage": shrinkage(result, clean, grid, noise, reach, v_result, v_clean),
         "sharp_edge_mean": sharp_mean,
