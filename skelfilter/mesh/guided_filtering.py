@@ -27,7 +27,7 @@ References
 import numpy as np
 from numba import njit, prange
 
-from skelfilter.mesh.normal_filtering import face_edges, normalize
+from skelfilter.mesh.normal_filtering import face_edges, spatial_weights, weighted_average
 
 # Normal differences below this (about 6 degrees) count as flat in `flat_share`.
 FLAT_DIFFERENCE = 0.1
@@ -193,17 +193,8 @@ def guided_normals(normals, areas, centroids, pairs, across, sigma_r, iterations
     .. [1] W. Zhang, B. Deng, J. Zhang, S. Bouaziz, L. Liu, "Guided mesh normal filtering", Computer
            Graphics Forum 34(7), 2015.
     """
-    i, j = pairs
-    m = len(normals)
-    neighbours = neighbour_lists(pairs, m)
-    spatial = np.linalg.norm(centroids[i] - centroids[j], axis=1)
-    sigma_s = spatial.mean() if spatial.size else 1.0
-    static = areas[j] * np.exp(-(spatial**2) / (2 * sigma_s**2))
+    neighbours = neighbour_lists(pairs, len(normals))
+    static = spatial_weights(areas, centroids, pairs)
     for _ in range(iterations):
-        guide = guidance(normals, areas, neighbours, across)
-        weight = static * np.exp(-np.sum((guide[i] - guide[j]) ** 2, axis=1) / (2 * sigma_r**2))
-        summed = areas[:, None] * normals
-        for axis in range(3):
-            summed[:, axis] += np.bincount(i, weights=weight * normals[j, axis], minlength=m)
-        normals = normalize(summed)
+        normals = weighted_average(normals, areas, pairs, static, guidance(normals, areas, neighbours, across), sigma_r)
     return normals

@@ -89,19 +89,32 @@ def bilateral_normals(normals, areas, centroids, pairs, sigma_r, iterations):
     -------
     (m, 3) float array
     """
+    static = spatial_weights(areas, centroids, pairs)
+    for _ in range(iterations):
+        normals = weighted_average(normals, areas, pairs, static, normals, sigma_r)
+    return normals
+
+
+def spatial_weights(areas, centroids, pairs):
+    """Per pair ``(i, j)``: ``A_j W_s(|c_i - c_j|)``, with σ_s the mean distance between neighbouring
+    centroids (the part of a bilateral weight that does not change between iterations)."""
     i, j = pairs
     spatial = np.linalg.norm(centroids[i] - centroids[j], axis=1)
     sigma_s = spatial.mean() if spatial.size else 1.0
-    static = areas[j] * np.exp(-(spatial**2) / (2 * sigma_s**2))
-    m = len(normals)
-    for _ in range(iterations):
-        difference = np.sum((normals[i] - normals[j]) ** 2, axis=1)
-        weight = static * np.exp(-difference / (2 * sigma_r**2))
-        summed = areas[:, None] * normals
-        for axis in range(3):
-            summed[:, axis] += np.bincount(i, weights=weight * normals[j, axis], minlength=m)
-        normals = normalize(summed)
-    return normals
+    return areas[j] * np.exp(-(spatial**2) / (2 * sigma_s**2))
+
+
+def weighted_average(normals, areas, pairs, static, range_normals, sigma_r):
+    """One bilateral step: each face's normal (weight its area) and its neighbours', weighted by
+    ``static`` (`spatial_weights`) and by the range kernel on ``range_normals`` (the normals
+    themselves, or a guidance), normalized."""
+    i, j = pairs
+    difference = np.sum((range_normals[i] - range_normals[j]) ** 2, axis=1)
+    weight = static * np.exp(-difference / (2 * sigma_r**2))
+    summed = areas[:, None] * normals
+    for axis in range(3):
+        summed[:, axis] += np.bincount(i, weights=weight * normals[j, axis], minlength=len(normals))
+    return normalize(summed)
 
 
 def fit_vertices(vertices, faces, normals, iterations, movable=None):
