@@ -110,6 +110,67 @@ def l_bracket():
     return _to_trimesh(solid)
 
 
+
+# The CAD shapes on which the mesh fine pass's guided rounds were chosen (benchmarks/literature.py
+# --part cad, remeshed there): piecewise-flat prisms and solids, and curved faces meeting at creases.
+def _star(points, inner, height, rounding=0.0):
+    """A star prism: ``points`` tips at radius 1, notches at ``inner``, corners rounded by ``rounding``."""
+    k = np.arange(2 * points)
+    radius = np.where(k % 2 == 0, 1.0, inner)
+    section = manifold3d.CrossSection([np.c_[radius * np.cos(k * np.pi / points), radius * np.sin(k * np.pi / points)]])
+    if rounding:
+        section = section.offset(rounding, manifold3d.JoinType.Round, circular_segments=64).offset(
+            -rounding, manifold3d.JoinType.Round)
+    return section.extrude(height)
+
+
+def star_prism():
+    """A six-pointed star prism, notches at 0.45 of the tips' radius, 0.5 high."""
+    return _to_trimesh(_star(6, 0.45, 0.5))
+
+
+def hex_nut():
+    """A hexagonal prism (circumradius 1, 0.6 high) with a diameter-0.8 bore."""
+    hexagon = manifold3d.CrossSection([np.c_[np.cos(np.arange(6) * np.pi / 3), np.sin(np.arange(6) * np.pi / 3)]])
+    return _to_trimesh((hexagon - manifold3d.CrossSection.circle(0.4, SEGMENTS)).extrude(0.6))
+
+
+def holed_l_prism():
+    """An L-shaped section (4 x 3, legs 1 wide) with a diameter-0.6 hole, extruded 1.5."""
+    section = manifold3d.CrossSection([np.array([(0, 0), (4, 0), (4, 1), (1, 1), (1, 3), (0, 3)], float)])
+    return _to_trimesh((section - manifold3d.CrossSection.circle(0.3, SEGMENTS).translate((2.8, 0.5))).extrude(1.5))
+
+
+def bored_block():
+    """A 3 x 2 x 1.2 block with a diameter-1 bore through it and a cube standing on an edge on top."""
+    block = _box((3.0, 2.0, 1.2), (0.0, 0.0, 0.0))
+    bore = manifold3d.Manifold.cylinder(3.0, 0.5, -1.0, SEGMENTS, True).rotate((90.0, 0.0, 0.0)).translate((0.6, 0, 0))
+    return _to_trimesh(block - bore + manifold3d.Manifold.cube((1.0, 1.0, 1.0), True).rotate(
+        (0.0, 0.0, 45.0)).translate((-0.8, 0.0, 0.9)))
+
+
+def sphere_box():
+    """A unit sphere cut by a cube of side 1.5: six flat discs on a sphere, meeting it at creases."""
+    return _to_trimesh(manifold3d.Manifold.sphere(1.0, 2 * SEGMENTS) ^ _box((1.5, 1.5, 1.5), (0.0, 0.0, 0.0)))
+
+
+def domed_star():
+    """A five-pointed star prism with rounded corners, its top cut by a sphere of radius 1.3."""
+    dome = manifold3d.Manifold.sphere(1.3, 2 * SEGMENTS).translate((0.0, 0.0, -0.6))
+    return _to_trimesh(_star(5, 0.55, 0.9, 0.08) ^ dome)
+
+
+def grooved_cylinder():
+    """A cylinder (radius 0.7, 1.2 high) with a groove of radius 0.25 around its top rim."""
+    torus = manifold3d.CrossSection.circle(0.25, 48).translate((0.7, 0.0)).revolve(SEGMENTS)
+    return _to_trimesh(manifold3d.Manifold.cylinder(1.2, 0.7, -1.0, SEGMENTS, True) - torus.translate((0, 0, 0.6)))
+
+
+FINE_PASS_CAD = {"star-prism": star_prism, "hex-nut": hex_nut, "holed-l-prism": holed_l_prism,
+                 "bored-block": bored_block, "sphere-box": sphere_box, "domed-star": domed_star,
+                 "grooved-cylinder": grooved_cylinder}
+
+
 # Thin-featured shapes: parts 2-8 voxels thick at the benchmark's 160 voxels (one voxel = 1/160 of the
 # longest side), the features a denoiser must keep. VOXEL is that length.
 VOXEL = 1.0 / 160.0
@@ -265,9 +326,9 @@ def load(name):
     Raises
     ------
     KeyError
-        For a name not in ``SHAPES``.
+        For a name neither in ``SHAPES`` nor in ``FINE_PASS_CAD``.
     """
-    mesh = SHAPES[name].build()
+    mesh = (SHAPES[name].build if name in SHAPES else FINE_PASS_CAD[name])()
     lo, hi = mesh.bounds
     mesh.apply_translation(-(lo + hi) / 2)
     mesh.apply_scale(1.0 / (hi - lo).max())

@@ -90,6 +90,18 @@ def test_the_adaptive_pass_sharpens_a_box_and_leaves_a_sphere_to_the_bilateral_f
     assert np.array_equal(adaptive, bilateral)
 
 
+def test_the_rounds_sharpen_a_piecewise_flat_shape_further(monkeypatch):
+    assert fine_pass.guided_rounds(0.0) == 2 and fine_pass.guided_rounds(1.0) == 4
+    box = fine_box()
+    rough = noisy(box, 0.5)  # a guided weight of 1
+    with_rounds, _ = fine_pass.fine_pass(rough.vertices, rough.faces)
+    monkeypatch.setattr(fine_pass, "GUIDED_ROUNDS", (0, 0))
+    without, _ = fine_pass.fine_pass(rough.vertices, rough.faces)
+    scores = [metrics.literature_errors(trimesh.Trimesh(v, box.faces, process=False), box)
+              for v in (with_rounds, without)]
+    assert scores[0].theta < 0.8 * scores[1].theta and scores[0].e_v < scores[1].e_v
+
+
 def test_an_unknown_normal_filter_is_refused():
     box = trimesh.creation.box()
     with pytest.raises(ValueError, match="normal_filter must be one of adaptive, bilateral"):
