@@ -12,7 +12,7 @@ area-weighted angle beside them, and skelfilter's time:
 - ``cad``: CAD shapes remeshed the way the literature's CAD meshes are (isotropic, 1/60 of the longest
   side, creases kept; and an irregular copy, half the faces by quadric edge collapse), with Gaussian
   noise along the normals (0.3, 0.5, 0.7 mean edge lengths) and in random directions (0.3, as
-  MeshTGV's block): the seven of ``benchmarks/shapes.FINE_PASS_CAD`` and the gear (tuning: the fine
+  MeshTGV's block): the seven of ``FINE_PASS_CAD`` in ``benchmarks/shapes.py`` and the gear (tuning: the fine
   pass's guided rounds were chosen on them) and the quality benchmark's other CAD parts (held out), against pygel3d and
   skelfilter's bilateral fine pass (``normal_filter="bilateral"``, the fine pass before guided filtering).
 - ``sota``: the two pairs of ``benchmarks/data/sota``, with the result their method's authors
