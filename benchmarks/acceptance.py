@@ -22,7 +22,7 @@ from scipy import ndimage
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.join(HERE, "..")
-PRESET = "thesis"
+PRESET = "thesis-tuned"
 
 
 def load(name):

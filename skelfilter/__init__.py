@@ -25,7 +25,7 @@ import importlib
 # ``import skelfilter`` stays cheap (numba kernels compile or load lazily).
 _EXPORTS = {
     "core.distance": ["distance_and_features"],
-    "core.edt_filters": ["minify"],
+    "core.edt_filters": ["filtered_radii", "flat_projection", "kernel_filter", "least_squares", "minify"],
     "errors": ["InputError", "ParameterError", "ResourceError", "SkelfilterError"],
     "core.importance": ["boundary_layer", "euclidean_importance", "geodesic_estimate", "geodesic_importance"],
     "core.noise": ["NoiseResult", "add_noise"],
@@ -33,8 +33,9 @@ _EXPORTS = {
     "core.pipeline": ["DenoiseResult", "denoise_volume"],
     "mesh.pipeline": ["denoise_mesh", "denoise_mesh_detailed", "noisy_mesh"],
     "core.reconstruct": ["reconstruction", "reverse_edt", "signed_distance"],
-    "core.saliency": ["derivative_measure", "edt_gradient_velocity", "feature_velocity", "rho_plus",
-                      "skeleton_adjacency"],
+    "core.saliency": ["derivative_measure", "direct_rho_plus", "edt_gradient_velocity", "feature_velocity",
+                      "importance_gradient_velocity", "rho_plus", "skeleton_adjacency"],
+    "core.selection": ["root_component", "saliency_measure"],
     "core.skeleton": ["extended_feature_points", "ie_skeleton", "ima_skeleton"],
     "mesh.marching_cubes": ["field_to_mesh", "field_to_world_mesh", "mask_to_mesh"],
     "jobs.denoise_file": ["denoise_file"],

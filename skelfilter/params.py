@@ -8,88 +8,43 @@ builds the MeshLab-style filter descriptions from these dataclasses, and the CLI
 flags, the Python and MeshSet defaults, the .mlx scripts and ``docs/filters.md``
 derive from those.
 
-Two presets fix the method's main choices: ``thesis`` is the thesis' pipeline with its defaults
-(§8.1.2: both stages, t = 18 voxels); ``default`` is what measured best on this project's quality
-benchmark (``benchmarks/quality.py``): the foreground stage only and t = 30 voxels of a 160-voxel
-grid, scaled with the resolution. Fields left unset (``None``, or ``"preset"`` for the stages)
-take the preset's value.
+Three presets fix the method's main choices: ``thesis`` is the thesis' pipeline as printed, with its
+defaults (§8.1.1-8.1.2: both stages, t = 18 voxels, eq. 5.6 as printed); ``thesis-tuned`` the same with
+two readings this project took before following the text literally (rho+ from the neighbours ahead
+along v, no derivative below rho = 7 voxels), kept so that its figures stay reproducible; ``default``
+is what measured best on this project's quality benchmark (``benchmarks/quality.py``): the foreground
+stage only and t = 30 voxels of a 160-voxel grid, scaled with the resolution. Fields left unset
+(``None``, or ``"preset"`` for a choice) take the preset's value.
 """
 
 import math
 import numbers
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
 from skelfilter.errors import ParameterError
-
-ABSOLUTE = "absolute"  # a length in voxels of the grid
-RELATIVE = "relative"  # a fraction of the longest side of the model's bounding box
-
-
-def _p(default, label, help, unit="", choices=None, measure="", limits=None):
-    """A parameter: ``label`` is MeshLab's short name for it, ``help`` its description, ``limits``
-    the closed range ``(low, high)`` of a number (checked by `check_limits`)."""
-    meta = {"label": label, "help": help, "unit": unit, "measure": measure}
-    if choices is not None:
-        meta["choices"] = tuple(choices)
-    if limits is not None:
-        meta["limits"] = limits
-    return field(default=default, metadata=meta)
-
-
-def check_limits(params):
-    """Every number field of a parameter dataclass is a finite number of its type within its
-    ``limits`` (None passes where the field allows it); the one check every entry point goes through.
-
-    Raises
-    ------
-    ParameterError
-        Naming the field, its range and the value.
-    """
-    for f in fields(params):
-        limits = f.metadata.get("limits")
-        value = getattr(params, f.name)
-        if limits is None or value is None:
-            continue
-        integral = "int" in str(f.type)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or (integral and not isinstance(value, int)):
-            raise ParameterError(f"{f.name} must be {'an integer' if integral else 'a number'}, got {value!r}")
-        low, high = limits
-        if not (math.isfinite(value) and low <= value <= high):
-            raise ParameterError(f"{f.name} must be {'an integer' if integral else 'a number'} in "
-                                 f"[{low:g}, {high:g}], got {value!r}")
-
-
-def build(cls, base=None, **values):
-    """A ``cls`` (a parameter dataclass) from ``values``, or ``base`` with ``values`` changed.
-
-    Raises
-    ------
-    ParameterError
-        An unknown name, as for any other bad value (not the TypeError of the constructor).
-    """
-    known = [f.name for f in fields(cls)]
-    unknown = sorted(set(values) - set(known))
-    if unknown:
-        raise ParameterError(f"unknown parameter{'s' if len(unknown) > 1 else ''} {', '.join(unknown)} "
-                             f"(known: {', '.join(known)})")
-    if base is None:
-        return cls(**values)
-    if not values:
-        return base
-    return base.with_(**values) if hasattr(base, "with_") else replace(base, **values)
-
+from skelfilter.parameter_fields import ABSOLUTE, RELATIVE, check_limits
+from skelfilter.parameter_fields import parameter as _p
 
 # What each preset sets when the field is left unset.
+_THESIS = {"stages": "both", "threshold": 18.0, "threshold_relative": None, "cap_factor": 2.0,
+           "unchanged_surface": "reconstruction", "thin_radius_relative": 1.0, "output_mesh": "closed",
+           "keep_features": "off", "fine_pass": "off"}
 PRESETS = {
     "default": {"stages": "foreground", "threshold": None, "threshold_relative": 30.0 / 160.0,
                 "cap_factor": 1.0, "unchanged_surface": "input", "thin_radius_relative": 4.0 / 160.0,
-                "output_mesh": "auto", "keep_features": "on", "fine_pass": "on"},
-    "thesis": {"stages": "both", "threshold": 18.0, "threshold_relative": None, "cap_factor": 2.0,
-               "unchanged_surface": "reconstruction", "thin_radius_relative": 1.0, "output_mesh": "closed",
-               "keep_features": "off", "fine_pass": "off"},
+                "output_mesh": "auto", "keep_features": "on", "fine_pass": "on",
+                "rho_plus_from": "ahead", "derivative_min_rho": 7.0},
+    # §8.1.1-8.1.2 as printed: eq. 5.6 over every visited neighbour, sigma_bar wherever eq. 4.3 allows
+    # and the voxel has two distinct feature points (rho >= 1; rho = 0 has no feature pair, eq. 3.6).
+    "thesis": {**_THESIS, "rho_plus_from": "any", "derivative_min_rho": 1.0},
+    # The thesis preset before it followed the text literally (its figures are kept bit for bit):
+    # rho+ from the neighbours ahead along v and no sigma_bar below rho = 7, as the default.
+    "thesis-tuned": {**_THESIS, "rho_plus_from": "ahead", "derivative_min_rho": 7.0},
 }
+# The fields a preset fills where they are left unset ("preset" for a choice, None for a number).
+PRESET_CHOICES = ("stages", "unchanged_surface", "output_mesh", "keep_features", "fine_pass", "rho_plus_from")
 
 
 @dataclass(frozen=True)
@@ -101,7 +56,9 @@ class DenoiseParams:
         "Preset",
         "the method's main choices for every field left unset: 'default' (measured best on the "
         "quality benchmark: foreground stage only, t = 0.1875 of the longest side, i.e. 30 voxels at "
-        "resolution 160) or 'thesis' (the thesis' pipeline, §8.1.2: both stages, t = 18 voxels)",
+        "resolution 160), 'thesis' (the thesis' pipeline as printed, §8.1.1-8.1.2: both stages, "
+        "t = 18 voxels, rho+ by eq. 5.6 over every neighbour) or 'thesis-tuned' (the same with rho+ "
+        "taken from the neighbours ahead along v and no derivative below rho = 7 voxels, as the default)",
         choices=tuple(PRESETS),
     )
     resolution: int | None = _p(
@@ -218,16 +175,44 @@ class DenoiseParams:
         measure=ABSOLUTE,
         limits=(0, 100),
     )
-    derivative_min_rho: float = _p(
-        7.0,
+    derivative_min_rho: float | None = _p(
+        None,
         "Least importance for the derivative",
         "below this importance rho the derivative measure is left undefined (like the guard l of "
         "eq. 4.3): on structures a few voxels across, such as the voxel steps of slanted surfaces, "
         "the grid's quantization of rho and D swamps sigma_bar; such voxels are never ligature and "
-        "take rho+ from any neighbour",
+        "take rho+ from any neighbour; 1 leaves out only voxels whose two feature points are one "
+        "(rho = 0); unset: the preset's (default and thesis-tuned: 7; thesis: 1)",
         "voxels",
         measure=ABSOLUTE,
-        limits=(0, 10000),
+        limits=(1, 10000),
+    )
+    pruning: str = _p(
+        "global",
+        "Pruning rule",
+        "how skeleton voxels are selected: 'global' (threshold t on the global streamline importance "
+        "rho+, eq. 5.6, §5.2.2), 'direct' (threshold t on rho+ of the direct streamlines, eq. 5.1-5.3, "
+        "§5.2.1), 'derivative' (the connected component of the root among the voxels with rho >= t "
+        "that are not ligature, sigma_bar > k, eq. 4.4) or 'saliency' (the root's component among the "
+        "voxels with saliency rho / D >= c, eq. 3.1-3.2, Telea's original rule)",
+        choices=("global", "direct", "derivative", "saliency"),
+    )
+    rho_plus_from: str = _p(
+        "preset",
+        "rho+ from",
+        "which visited 26-neighbours a voxel takes rho+ from in eq. 5.6: 'ahead' (those within the cone "
+        "along v that the derivative measure steps in, so that core importance does not leak sideways "
+        "along noise sheets of equal rho) or 'any' (every one, eq. 5.6 as printed); 'preset': the "
+        "preset's (default and thesis-tuned: ahead; thesis: any)",
+        choices=("preset", "ahead", "any"),
+    )
+    saliency_threshold: float = _p(
+        1.0,
+        "Saliency threshold c",
+        "with the 'saliency' pruning rule, skeleton voxels with rho / D >= c are selected (eq. 3.2); "
+        "a core sheet has rho / D >= 2 (its feature points lie on opposite sides, at least 2 D apart "
+        "along the boundary), a ligature sheet's falls towards 0 as D grows along it",
+        limits=(1e-6, 1000),
     )
     stages: str = _p(
         "preset",
@@ -246,11 +231,21 @@ class DenoiseParams:
         choices=("preset", "input", "reconstruction"),
     )
     edt_filter: str = _p(
-        "minify", "EDT filter", "EDT filter applied to the kept skeleton radii (§6.2.1)",
-        choices=("minify", "none"),
+        "minify",
+        "EDT filter",
+        "filter of the kept skeleton voxels' radii against EDT ripples (§6.2): kernels over the ball of "
+        "radius r (eq. 6.1), on every voxel of the shape (implicit) or, with 'explicit-', on the kept "
+        "skeleton voxels only: 'minify' (minimum + r where D >= r), 'mean', 'median', 'opening' "
+        "(minimum, then maximum); 'least-squares' (projection on the local plane of (x, D), eq. "
+        "6.2-6.4); 'flat' (radii shrunk off the segments between the pruned voxels' feature points, "
+        "§6.2.3); 'none'. The reconstruction is kept inside the shape (the anti-extensiveness eq. 6.1 "
+        "asks for), where a filter raised a radius above D",
+        choices=("minify", "explicit-minify", "mean", "explicit-mean", "median", "explicit-median",
+                 "opening", "explicit-opening", "least-squares", "flat", "none"),
     )
     minify_radius: float = _p(
-        3.0, "Minification radius r", "radius r of the implicit minification filter (§6.2.1)", "voxels",
+        3.0, "EDT filter radius r", "radius r of the EDT filter's neighbourhood (§6.2, the thesis uses 3)",
+        "voxels",
         measure=ABSOLUTE,
         limits=(0, 100),
     )
@@ -280,8 +275,9 @@ class DenoiseParams:
     velocity: str = _p(
         "feature",
         "Velocity field",
-        "velocity field v of the derivative measure: feature-point based (eq. 4.16) or grad D (eq. 4.7)",
-        choices=("feature", "edt-gradient"),
+        "velocity field v of the derivative measure: feature-point based (eq. 4.16), grad D (eq. 4.7) "
+        "or grad rho (eq. 4.5, differences along the skeleton)",
+        choices=("feature", "edt-gradient", "importance-gradient"),
     )
 
     def __post_init__(self):
@@ -309,9 +305,11 @@ class DenoiseParams:
     def _apply_preset(self):
         """Fill the fields left unset with the preset's values (the dataclass is frozen)."""
         preset = PRESETS[self.preset]
-        for name in ("stages", "unchanged_surface", "output_mesh", "keep_features", "fine_pass"):
+        for name in PRESET_CHOICES:
             if getattr(self, name) == "preset":
                 object.__setattr__(self, name, preset[name])
+        if self.derivative_min_rho is None:
+            object.__setattr__(self, "derivative_min_rho", preset["derivative_min_rho"])
         if self.thin_radius_relative is None:
             object.__setattr__(self, "thin_radius_relative", preset["thin_radius_relative"])
         if self.threshold is None and self.threshold_relative is None:

@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import subprocess
 import sys
 
@@ -39,3 +40,15 @@ def test_benchmark_writes_every_figure(tmp_path):
     assert large["voxels"] > small["voxels"]
     assert set(data["exponents"]) == set(small["steps_s"]) | {"total", "edt_with_indices"}
     assert set(data["targets"]) == {"total / EDT at 48", "total / EDT at 56"}
+
+
+def test_thesis_tables_print_both_columns(tmp_path):
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.path.abspath(ROOT), os.environ.get("PYTHONPATH", "")]))
+    done = subprocess.run([sys.executable, os.path.join(ROOT, "benchmarks", "thesis_tables.py"), "7.1",
+                           "--resolution", "32", "--out", str(tmp_path)], env=env, capture_output=True, text=True,
+                          timeout=600)
+    assert done.returncode == 0, done.stderr
+    rows = [line for line in done.stdout.splitlines() if line.startswith("| cube")]
+    assert len(rows) == 1
+    ours, thesis = (float(x) for x in re.search(r"([0-9.]+) \\\| ([0-9.]+)", rows[0]).groups())
+    assert 0 < ours < 1 and thesis == 0.1169  # ours beside the thesis' printed figure

@@ -23,6 +23,8 @@ def _brute_minify(distance, centres, radius):
         near = (((x - c[n]) ** 2).sum(axis=1) <= radius**2 + 1e-9) & (d > 0)
         inf = d[near].min() if near.any() else 0.0
         out[n] = inf + radius if d[centres[n]] >= radius else inf
+        if d[centres[n]] <= 0:  # eq. 6.1's "otherwise": a centre outside X
+            out[n] = 0.0
     return out.astype(np.float32)
 
 

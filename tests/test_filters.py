@@ -42,7 +42,7 @@ def test_descriptions_are_read_off_the_dataclasses():
     assert (d["resolution"].rich_type, d["threshold"].rich_type, d["stages"].rich_type) == (
         "RichInt", "RichFloat", "RichEnum")
     assert d["stages"].choices == ("preset", "both", "foreground", "background")
-    assert d["preset"].choices == ("default", "thesis")
+    assert d["preset"].choices == ("default", "thesis", "thesis-tuned")
     assert (d["threshold"].measure, d["threshold_relative"].measure, d["k"].measure) == (
         "absolute", "relative", "")
     assert d["padding"].optional and d["padding"].meshlab_default == 0

@@ -21,7 +21,7 @@ HARNESS = harness.__file__
 # every step of a run, with the output mesh that makes it run
 STEPS = [(step, "auto") for step in (
     "voxelize", "fine noise", "solid check", "foreground/distance transform", "foreground/skeleton",
-    "foreground/importance", "foreground/derivative measure", "foreground/rho+", "foreground/EDT filter",
+    "foreground/importance", "foreground/derivative measure", "foreground/pruning", "foreground/EDT filter",
     "foreground/reconstruction", "foreground/noise estimate", "foreground/features kept", "specks", "needles")]
 STEPS += [("input surface", "closed"), ("marching cubes", "closed"), ("vertices moved", "input"),
           ("fine pass", "input")]

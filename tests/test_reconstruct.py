@@ -4,7 +4,13 @@ import numpy as np
 import pytest
 from scipy import ndimage as ndi
 
-from skelfilter.core.reconstruct import reconstruction, reverse_edt, signed_distance
+from skelfilter.core.reconstruct import (
+    naive_union_of_balls,
+    reconstruction,
+    reverse_edt,
+    signed_distance,
+    union_of_balls,
+)
 from skelfilter.errors import ParameterError
 
 
@@ -60,6 +66,8 @@ def test_reconstruction_is_union_of_open_balls(seed):
     radii = np.sqrt(squared)
     union = (_brute(shape, centres, radii) < squared).any(axis=1).reshape(shape)
     np.testing.assert_array_equal(reconstruction(reverse_edt(shape, centres, radii)[0]), union)
+    np.testing.assert_array_equal(naive_union_of_balls(shape, centres, radii), union)  # Fig. 7.6's baseline
+    np.testing.assert_array_equal(union_of_balls(shape, centres, radii)[0], union)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

@@ -34,6 +34,10 @@ def compile_kernels():
                    DenoiseParams(resolution=RESOLUTION, output_mesh="input"),
                    DenoiseParams(resolution=RESOLUTION, preset="thesis")):
         mesh_pipeline.denoise_mesh(noisy, params)
+    # The thesis' alternatives to its final pipeline (their kernels and argument types).
+    for variant in ({"pruning": "direct", "edt_filter": "opening"}, {"edt_filter": "explicit-mean"},
+                    {"edt_filter": "least-squares", "velocity": "importance-gradient"}):
+        mesh_pipeline.denoise_mesh(noisy, DenoiseParams(resolution=RESOLUTION, preset="thesis", **variant))
     # An open mesh: the voxelization's hole handling.
     half = trimesh.Trimesh(clean.vertices, clean.faces[clean.triangles_center[:, 2] < clean.centroid[2]],
                            process=False)

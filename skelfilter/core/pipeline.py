@@ -17,6 +17,7 @@ from skelfilter.core import (
     noise_estimate,
     reconstruct,
     saliency,
+    selection,
     skeleton,
     surface_field,
     volume_fine_pass,
@@ -25,7 +26,8 @@ from skelfilter.core import spacing as voxel_spacing
 from skelfilter.core.distance import distance_and_features
 from skelfilter.core.neighbourhood import bounding_box, unravel
 from skelfilter.errors import InputError, ParameterError
-from skelfilter.params import DenoiseParams, VolumeParams, build
+from skelfilter.parameter_fields import build
+from skelfilter.params import DenoiseParams, VolumeParams
 from skelfilter.runtime.memory import check_grid_fits
 from skelfilter.runtime.progress import Progress
 
@@ -37,9 +39,9 @@ class SkeletonData:
     voxels: np.ndarray  # flat indices into the stage's volume
     distance: np.ndarray  # D
     rho: np.ndarray  # importance
-    sigma_bar: np.ndarray  # derivative measure (NaN: undefined, eq. 4.3)
-    rho_plus: np.ndarray  # global streamline importance, eq. 5.6
-    kept: np.ndarray  # rho+ >= t
+    sigma_bar: np.ndarray  # derivative measure (NaN: undefined, eq. 4.3, or not used by the rule)
+    rho_plus: np.ndarray  # streamline importance, eq. 5.6 or 5.3 (NaN for the rules of eq. 3.2 and 4.4)
+    kept: np.ndarray  # the pruning rule's selection
     radii: np.ndarray  # reconstruction radii of the kept voxels (after the EDT filter)
     expansions: np.ndarray = None  # A* nodes settled per geodesic query
 
@@ -79,6 +81,7 @@ def saliency_stage(volume, params, progress):
             voxels = skeleton.ima_skeleton(volume, features)
         a_flat, b_flat = skeleton.extended_feature_points(volume, features, voxels)
         del features
+        adjacency = saliency.skeleton_adjacency(voxels, shape)
     with progress.step("importance"):
         expansions = None
         if params.importance == "geodesic":
@@ -94,37 +97,46 @@ def saliency_stage(volume, params, progress):
             # infinitely far apart along the boundary, whatever the proxy says.
             far = importance.disconnected_pairs(importance.boundary_layer(volume), a_flat, b_flat)
             rho[far] = np.float32(params.cap_voxels)
-    with progress.step("derivative measure"):
-        adjacency = saliency.skeleton_adjacency(voxels, shape)
-        if params.velocity == "feature":
-            v = saliency.feature_velocity(voxels, shape, unravel(a_flat, shape), unravel(b_flat, shape))
-        else:
-            v = saliency.edt_gradient_velocity(distance, voxels)
-        sigma_bar = saliency.derivative_measure(
-            rho, distance, voxels, v, adjacency, params.derivative_guard,
-            min_cosine=saliency.STREAM_COSINE, min_rho=params.derivative_min_rho,
-        )
-    with progress.step("rho+"):
-        # Eq. 5.6 restricted to the neighbours ahead along v, the cone that
-        # the derivative measure steps in (the streamlines of eq. 5.1).
-        rho_plus = saliency.rho_plus(
-            rho, sigma_bar, adjacency, params.k, velocity=v, skeleton=voxels, shape=shape,
-            min_cosine=saliency.STREAM_COSINE, min_rho=params.derivative_min_rho,
-        )
-        kept = rho_plus >= params.threshold_voxels
+    radius = distance.reshape(-1)[voxels]
+    sigma_bar = rho_plus = np.full(len(voxels), np.nan, dtype=np.float32)
+    if params.pruning != "saliency":
+        with progress.step("derivative measure"):
+            v = _velocity(params.velocity, distance, voxels, shape, a_flat, b_flat, rho)
+            sigma_bar = saliency.derivative_measure(
+                rho, distance, voxels, v, adjacency, params.derivative_guard,
+                min_cosine=saliency.STREAM_COSINE, min_rho=params.derivative_min_rho,
+            )
+    with progress.step("pruning"):
+        if params.pruning == "global":
+            # Eq. 5.6; with rho_plus_from 'ahead' restricted to the neighbours ahead along v, the
+            # cone that the derivative measure steps in (the streamlines of eq. 5.1).
+            ahead = params.rho_plus_from == "ahead"
+            rho_plus = saliency.rho_plus(
+                rho, sigma_bar, adjacency, params.k, velocity=v if ahead else None, skeleton=voxels, shape=shape,
+                min_cosine=saliency.STREAM_COSINE, min_rho=params.derivative_min_rho,
+            )
+        elif params.pruning == "direct":
+            rho_plus = saliency.direct_rho_plus(rho, sigma_bar, adjacency, v, voxels, shape, params.k)
+        if params.pruning in ("global", "direct"):
+            kept = rho_plus >= params.threshold_voxels
+        elif params.pruning == "derivative":  # eq. 4.4: undefined sigma_bar is never ligature
+            kept = selection.root_component((rho >= params.threshold_voxels) & ~(sigma_bar <= params.k),
+                                           adjacency, rho)
+        else:  # eq. 3.2
+            kept = selection.root_component(selection.saliency_measure(rho, radius) >= params.saliency_threshold,
+                                           adjacency, rho)
         if params.thin_radius_voxels is not None:
-            radius = distance.reshape(-1)[voxels]
-            kept |= saliency.thin_part(voxels, a_flat, b_flat, radius, shape, params.thin_radius_voxels)
-            kept &= ~saliency.detached_noise(kept, adjacency, radius, params.thin_radius_voxels)
-            del radius
+            kept |= selection.thin_part(voxels, a_flat, b_flat, radius, shape, params.thin_radius_voxels)
+            kept &= ~selection.detached_noise(kept, adjacency, radius, params.thin_radius_voxels)
         centres = voxels[kept]
-        del adjacency, v, a_flat, b_flat
+        pruned_features = None
+        if params.edt_filter == "flat":
+            pruned_features = (unravel(a_flat[~kept], shape), unravel(b_flat[~kept], shape))
+        del adjacency, a_flat, b_flat
     with progress.step("EDT filter"):
-        radii = distance.reshape(-1)[centres]
-        if params.edt_filter == "minify":
-            # Eq. 6.1 keeps the filter anti-extensive, but on a discrete EDT
-            # (D >= 1 on X) the +r correction can exceed D by up to 1: cap it.
-            radii = np.minimum(edt_filters.minify(distance, centres, params.minify_radius), radii)
+        radii = edt_filters.filtered_radii(params.edt_filter, distance, centres, params.minify_radius,
+                                           pruned_features)
+        del pruned_features
         # Balls of radius D reach the centres of the nearest outside voxels;
         # shrunk by half a voxel they end on the voxel boundary, so the
         # reconstruction is the voxel set whose centres lie inside the
@@ -143,7 +155,22 @@ def saliency_stage(volume, params, progress):
     del distance
     with progress.step("reconstruction"):
         mask, phi = reconstruct.union_of_balls(shape, centres, radii)
+        # A filter that raised a radius above D must not add to the shape (eq. 6.1, Lemma 7); balls no
+        # larger than D - 1/2 hold no voxel of the complement, so this changes nothing for the others.
+        outside = mask & ~volume
+        mask &= volume
+        np.minimum(phi, -1e-3, out=phi, where=outside)
+        del outside
     return StageResult(mask=mask, field=phi, skeleton=data)
+
+
+def _velocity(name, distance, voxels, shape, a_flat, b_flat, rho):
+    """The velocity field ``v`` of the derivative measure at the skeleton voxels (§4.2.1)."""
+    if name == "feature":
+        return saliency.feature_velocity(voxels, shape, unravel(a_flat, shape), unravel(b_flat, shape))
+    if name == "edt-gradient":
+        return saliency.edt_gradient_velocity(distance, voxels)
+    return saliency.importance_gradient_velocity(rho, voxels, shape)
 
 
 def denoise_padded(volume, params, progress):

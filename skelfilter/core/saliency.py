@@ -1,4 +1,5 @@
-"""Derivative measure and streamline importance rho+ (thesis §4.2, §5.2.1 and §5.2.2).
+"""Pruning measures of the skeleton: the velocity fields (§4.2.1), the derivative measure (§4.2) and
+the streamline importance rho+ (§5.2.1 and §5.2.2). `skelfilter.core.selection` keeps voxels by them.
 
 Everything here works on flat arrays over the skeleton voxels, linked by
 their 26-adjacency; ``rho`` exists only on the skeleton, so its derivative
@@ -7,8 +8,6 @@ is taken from skeleton neighbours only (§4.2.1).
 
 import numba
 import numpy as np
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import connected_components
 
 from skelfilter.core.distance import gradient_at
 from skelfilter.core.neighbourhood import OFFSETS_26, flat_offsets, unravel
@@ -82,6 +81,33 @@ def edt_gradient_velocity(distance, skeleton):
            thesis, University of Groningen, 2016, §4.2.1, eq. 4.7.
     """
     return gradient_at(distance, skeleton)
+
+
+def importance_gradient_velocity(rho, skeleton, shape):
+    """Velocity field ``v(x) = grad rho(x)`` (eq. 4.5), shape ``(n, 3)``.
+
+    ``rho`` lives on the skeleton only, so each axis' difference is taken between skeleton voxels:
+    central where both neighbours along the axis are on the skeleton, one-sided where one is, 0 where
+    none is (the thesis' central differences over a ``rho`` of 0 off the skeleton would point every
+    ``v`` into the skeleton, not along it).
+
+    References
+    ----------
+    .. [1] H. R. Schubert, "Salient edge preserving noise removal using surface skeletons", master
+           thesis, University of Groningen, 2016, §4.2.1, eq. 4.5-4.6.
+    """
+    skeleton = np.asarray(skeleton, dtype=np.int64)
+    rho = np.asarray(rho, dtype=np.float64)
+    lookup = np.full(int(np.prod(shape)), -1, dtype=np.int32)
+    lookup[skeleton] = np.arange(len(skeleton), dtype=np.int32)
+    out = np.zeros((len(skeleton), 3), dtype=np.float32)
+    for axis, step in enumerate(np.cumprod((1,) + tuple(shape[:0:-1]))[::-1]):
+        ahead, behind = lookup[skeleton + step], lookup[skeleton - step]
+        up = np.where(ahead >= 0, rho[ahead], rho)
+        down = np.where(behind >= 0, rho[behind], rho)
+        both = (ahead >= 0) & (behind >= 0)
+        out[:, axis] = np.where(both, 0.5 * (up - down), up - down)
+    return out
 
 
 def derivative_measure(rho, distance, skeleton, velocity, adjacency, guard=0.1, min_cosine=STREAM_COSINE,
@@ -234,80 +260,76 @@ def _rho_plus_cone(rho, ligature, order, indptr, indices, coords, velocity, cone
     return out
 
 
-def thin_part(voxels, a_flat, b_flat, radius, shape, min_radius, min_angle=150.0):
-    """Skeleton voxels in the middle of a thin part: feature points on opposite sides, ball not small.
+def direct_rho_plus(rho, sigma_bar, adjacency, velocity, skeleton, shape, k=0.9):
+    """Importance ``rho+`` of the direct streamlines (eq. 5.1-5.3).
 
-    A voxel of a plate, a wall or a rim has its two feature points straight
-    across (the angle between ``a - x`` and ``b - x``, the object angle, near
-    180°), and the radius of its ball is half the part's thickness. Ligature
-    voxels, which eq. 5.6 is built to prune, have a small object angle; the
-    axis of a noise protrusion has a large one but a ball no wider than the
-    protrusion. Voxels with object angle >= ``min_angle`` and ``radius >=
-    min_radius`` are therefore kept whatever their importance: near the rim of
-    a thin wall the geodesic between the two sides is short (about the
-    thickness plus twice the distance to the rim) and the velocity of
-    eq. 4.16 vanishes, so rho+ cannot inherit importance there.
-
-    Parameters
-    ----------
-    voxels, a_flat, b_flat : int ndarray
-        Flat indices of the skeleton voxels and of their two feature points.
-    radius : float ndarray
-        D at the skeleton voxels.
-    shape : tuple of int
-    min_radius : float
-        Least ball radius (half thickness), in voxels.
-    min_angle : float, optional
-        Least object angle, degrees.
+    The path of ``x`` steps from ``a_k`` to the 26-neighbour ``y`` on the skeleton that maximises
+    ``v(a_k) . (y - a_k)`` among those with ``rho(y) >= rho(a_k)`` (eq. 5.1, ties to the first in
+    `OFFSETS_26` order); it ends at a voxel with no such neighbour (a local root) or a low-derivative
+    voxel (``sigma_bar <= k``; NaN, undefined, never is). ``rho+(x)`` is the largest ``rho`` on the path
+    (eq. 5.2), that of its last voxel (eq. 5.3). Every voxel has one successor, so the paths form a
+    forest and each voxel is resolved once; a path that comes back to a voxel (a cycle on a plateau of
+    equal ``rho``) ends there with that ``rho``.
 
     Returns
     -------
-    bool ndarray, aligned with ``voxels``
+    rho_plus : float32 ndarray
+        ``rho_plus >= rho`` everywhere.
+
+    References
+    ----------
+    .. [1] H. R. Schubert, "Salient edge preserving noise removal using surface skeletons", master
+           thesis, University of Groningen, 2016, §5.2.1, eq. 5.1-5.3.
     """
-    candidates = np.flatnonzero(radius >= min_radius)
-    x = unravel(voxels[candidates], shape).astype(np.float32)
-    to_a = unravel(a_flat[candidates], shape) - x
-    to_b = unravel(b_flat[candidates], shape) - x
-    cosine = (to_a * to_b).sum(axis=1) / np.maximum(
-        np.linalg.norm(to_a, axis=1) * np.linalg.norm(to_b, axis=1), 1e-12)
-    out = np.zeros(len(voxels), dtype=bool)
-    out[candidates[cosine <= np.cos(np.radians(min_angle))]] = True
+    indptr, indices = adjacency
+    rho = np.asarray(rho, dtype=np.float32)
+    coords = unravel(skeleton, shape).astype(np.float64)
+    ligature = np.asarray(sigma_bar <= k)  # NaN compares False
+    successor = _successors(rho, ligature, indptr, indices, coords, np.asarray(velocity, dtype=np.float64))
+    return _path_ends(rho, successor)
+
+
+@numba.njit(cache=True, parallel=True)
+def _successors(rho, ligature, indptr, indices, coords, velocity):
+    n = rho.shape[0]
+    out = np.full(n, -1, dtype=np.int64)
+    for i in numba.prange(n):
+        if ligature[i]:
+            continue
+        best = -np.inf
+        for p in range(indptr[i], indptr[i + 1]):
+            j = indices[p]
+            if rho[j] < rho[i]:
+                continue
+            along = (velocity[i, 0] * (coords[j, 0] - coords[i, 0]) + velocity[i, 1] * (coords[j, 1] - coords[i, 1])
+                     + velocity[i, 2] * (coords[j, 2] - coords[i, 2]))  # eq. 5.1
+            if along > best:
+                best, out[i] = along, j
     return out
 
 
-def detached_noise(kept, adjacency, radius, max_radius):
-    """Kept skeleton pieces cut off from the rest by the pruning, all of whose balls are small.
-
-    Pruning the ligature of a protrusion whose own axis inherited importance
-    leaves that axis as an island of kept voxels; its balls rebuild a needle
-    or a blob standing on the surface. A connected component (26-adjacency)
-    of the kept voxels whose largest radius is below ``max_radius`` is such
-    noise: any part of the shape thicker than ``2 max_radius`` has a ball at
-    least that large in its skeleton.
-
-    Parameters
-    ----------
-    kept : bool ndarray
-        Kept skeleton voxels.
-    adjacency : (indptr, indices)
-        26-adjacency of the skeleton voxels (`skeleton_adjacency`).
-    radius : float ndarray
-        D at the skeleton voxels.
-    max_radius : float
-        In voxels.
-
-    Returns
-    -------
-    bool ndarray, aligned with ``kept``
-        The kept voxels to prune.
-    """
-    indptr, indices = adjacency
-    n = len(kept)
-    rows = np.repeat(np.arange(n, dtype=np.int32), np.diff(indptr))
-    both = kept[rows] & kept[indices]
-    graph = csr_matrix((np.ones(int(both.sum()), dtype=np.int8), (rows[both], indices[both])), shape=(n, n))
-    _, label = connected_components(graph, directed=False)
-    label = np.where(kept, label, -1)
-    largest = np.zeros(label.max() + 2, dtype=np.float64)
-    np.maximum.at(largest, label + 1, radius)
-    return kept & (largest[label + 1] < max_radius)
+@numba.njit(cache=True)
+def _path_ends(rho, successor):
+    n = rho.shape[0]
+    out = rho.copy()
+    state = np.zeros(n, dtype=np.int8)  # 0 unseen, 1 on the path being followed, 2 resolved
+    path = np.empty(n, dtype=np.int64)
+    for start in range(n):
+        if state[start]:
+            continue
+        length, i = 0, start
+        while i >= 0 and state[i] == 0:
+            state[i] = 1
+            path[length] = i
+            length += 1
+            i = successor[i]
+        if i < 0:
+            value = rho[path[length - 1]]  # the path's end, eq. 5.3
+        elif state[i] == 2:
+            value = out[i]
+        else:
+            value = rho[i]  # back on the path: a plateau of equal rho
+        for m in range(length):
+            out[path[m]] = value
+            state[path[m]] = 2
+    return out

@@ -25,7 +25,8 @@ from dataclasses import fields
 from skelfilter.errors import InputError, SkelfilterError
 from skelfilter.io import mesh_files
 from skelfilter.jobs import denoise_file
-from skelfilter.params import DenoiseParams, VolumeParams, build
+from skelfilter.parameter_fields import build
+from skelfilter.params import DenoiseParams, VolumeParams
 from skelfilter.runtime.extras import need
 from skelfilter.runtime.memory import read_field, return_freed_memory
 from skelfilter.runtime.progress import Progress

@@ -11,7 +11,8 @@ from skelfilter.errors import InputError, ParameterError, ResourceError
 from skelfilter.io.mesh_files import validate_mesh
 from skelfilter.mesh import fine_pass, marching_cubes, output_choice, vertex_projection, voxelize
 from skelfilter.mesh.frame import Frame
-from skelfilter.params import NoiseParams, build, voxel_fields_given
+from skelfilter.parameter_fields import build
+from skelfilter.params import NoiseParams, voxel_fields_given
 from skelfilter.runtime.memory import check_grid_fits
 from skelfilter.runtime.progress import Progress
 

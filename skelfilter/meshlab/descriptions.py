@@ -24,7 +24,8 @@ import numpy as np
 
 from skelfilter.errors import ParameterError
 from skelfilter.mesh import pipeline as mesh_pipeline
-from skelfilter.params import ABSOLUTE, RELATIVE, DenoiseParams, NoiseParams
+from skelfilter.parameter_fields import ABSOLUTE, RELATIVE
+from skelfilter.params import DenoiseParams, NoiseParams
 
 RICH_TYPES = {bool: "RichBool", int: "RichInt", float: "RichFloat", str: "RichEnum"}
 
@@ -45,7 +46,7 @@ class FilterParameter:
     measure: str  # ABSOLUTE, RELATIVE or "" (not a length)
     choices: tuple  # the entries of a RichEnum
     optional: bool  # None allowed in Python (written 0 in MeshLab)
-    limits: tuple = None  # closed range of a number (params.check_limits)
+    limits: tuple = None  # closed range of a number (parameter_fields.check_limits)
 
     @property
     def full_tooltip(self):

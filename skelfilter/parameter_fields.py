@@ -1,0 +1,64 @@
+"""Parameter fields: the metadata every parameter carries, the range check and the builder that
+every entry point goes through (`skelfilter.params` declares the parameters with them)."""
+
+import math
+from dataclasses import field, fields, replace
+
+from skelfilter.errors import ParameterError
+
+ABSOLUTE = "absolute"  # a length in voxels of the grid
+RELATIVE = "relative"  # a fraction of the longest side of the model's bounding box
+
+
+def parameter(default, label, help, unit="", choices=None, measure="", limits=None):
+    """A parameter: ``label`` is MeshLab's short name for it, ``help`` its description, ``limits``
+    the closed range ``(low, high)`` of a number (checked by `check_limits`)."""
+    meta = {"label": label, "help": help, "unit": unit, "measure": measure}
+    if choices is not None:
+        meta["choices"] = tuple(choices)
+    if limits is not None:
+        meta["limits"] = limits
+    return field(default=default, metadata=meta)
+
+
+def check_limits(params):
+    """Every number field of a parameter dataclass is a finite number of its type within its
+    ``limits`` (None passes where the field allows it); the one check every entry point goes through.
+
+    Raises
+    ------
+    ParameterError
+        Naming the field, its range and the value.
+    """
+    for f in fields(params):
+        limits = f.metadata.get("limits")
+        value = getattr(params, f.name)
+        if limits is None or value is None:
+            continue
+        integral = "int" in str(f.type)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or (integral and not isinstance(value, int)):
+            raise ParameterError(f"{f.name} must be {'an integer' if integral else 'a number'}, got {value!r}")
+        low, high = limits
+        if not (math.isfinite(value) and low <= value <= high):
+            raise ParameterError(f"{f.name} must be {'an integer' if integral else 'a number'} in "
+                                 f"[{low:g}, {high:g}], got {value!r}")
+
+
+def build(cls, base=None, **values):
+    """A ``cls`` (a parameter dataclass) from ``values``, or ``base`` with ``values`` changed.
+
+    Raises
+    ------
+    ParameterError
+        An unknown name, as for any other bad value (not the TypeError of the constructor).
+    """
+    known = [f.name for f in fields(cls)]
+    unknown = sorted(set(values) - set(known))
+    if unknown:
+        raise ParameterError(f"unknown parameter{'s' if len(unknown) > 1 else ''} {', '.join(unknown)} "
+                             f"(known: {', '.join(known)})")
+    if base is None:
+        return cls(**values)
+    if not values:
+        return base
+    return base.with_(**values) if hasattr(base, "with_") else replace(base, **values)
