@@ -43,6 +43,9 @@ PRESETS = {
     # rho+ from the neighbours ahead along v and no sigma_bar below rho = 7, as the default.
     "thesis-tuned": {**_THESIS, "rho_plus_from": "ahead", "derivative_min_rho": 7.0},
 }
+# The cap of the geodesic searches for the rules that read rho itself (eq. 3.1, 4.2 with Gamma_y): past a
+# cap rho would be constant along the core, where sigma_bar would fall to 0 and rho / D towards 0.
+UNCAPPED_GEODESIC = 1e6
 # The fields a preset fills where they are left unset ("preset" for a choice, None for a number).
 PRESET_CHOICES = ("stages", "unchanged_surface", "output_mesh", "keep_features", "fine_pass", "rho_plus_from")
 
@@ -260,8 +263,9 @@ class DenoiseParams:
         None,
         "Geodesic search cap",
         "geodesics are searched up to this length and longer ones are set to it; any cap above t "
-        "leaves the kept/pruned decision of every voxel unchanged in practice (unset: t + 8 with "
-        "the default preset, max(2t, t+8) with the thesis')",
+        "leaves the kept/pruned decision of every voxel unchanged in practice with the streamline "
+        "rules (unset: t + 8 with the default preset, max(2t, t+8) with the thesis'; uncapped with "
+        "the 'derivative' and 'saliency' pruning rules, whose measures read rho itself)",
         "voxels",
         measure=ABSOLUTE,
         limits=(1e-6, 20000),
@@ -349,6 +353,8 @@ class DenoiseParams:
         """Length at which geodesic searches stop (see ``geodesic_cap``)."""
         if self.geodesic_cap is not None:
             return float(self.geodesic_cap)
+        if self.pruning in ("derivative", "saliency"):
+            return UNCAPPED_GEODESIC
         t = self.threshold_voxels
         return max(PRESETS[self.preset]["cap_factor"] * t, t + 8.0)
 

@@ -13,7 +13,7 @@ from skelfilter.core.neighbourhood import OFFSETS_26, unravel
 from skelfilter.core.saliency import direct_rho_plus, importance_gradient_velocity
 from skelfilter.core.selection import root_component, saliency_measure
 from skelfilter.mesh.voxelize import voxelize
-from skelfilter.params import DenoiseParams
+from skelfilter.params import UNCAPPED_GEODESIC, DenoiseParams
 
 SHAPE = (12, 13, 14)
 
@@ -222,7 +222,8 @@ def test_every_edt_filter_keeps_the_stage_inside_its_shape(noisy_cube, edt_filte
     ("global", "feature", 0.2, 0.002),  # 0.123 / 0.0006 (the thesis' pipeline)
     ("global", "importance-gradient", 0.35, 0.002),  # 0.282 / 0.0003: grad rho is the worst field (Table 4.1)
     ("direct", "feature", 0.1, 0.005),  # 0.025 / 0.0025: direct streamlines prune more, core too (§5.3.1)
-    ("derivative", "feature", 0.01, 0.08),  # 0.0 / 0.062: Gamma_y keeps no sheet with rho < t near the edges
+    ("derivative", "feature", 0.01, 0.08),  # 0.0 / 0.058: Gamma_y keeps no sheet with rho < t near the edges
+    ("derivative", "edt-gradient", 0.01, 0.08),  # 0.0 / 0.061 (0.46 with the geodesic cap: the core cut apart)
     ("saliency", "feature", 0.7, 0.001),  # 0.596 / 0.0001: rho / D cannot reach the bumps near the edges (§4.1)
 ])
 def test_pruning_rules_remove_bumps_and_keep_the_core(noisy_cube, pruning, velocity, most_left, most_lost):
@@ -241,3 +242,10 @@ def test_rules_without_rho_plus_store_none():
     assert np.isnan(stage.skeleton.rho_plus).all() and np.isnan(stage.skeleton.sigma_bar).all()
     np.testing.assert_array_equal(filtered_radii("none", ndi.distance_transform_edt(cube), np.flatnonzero(cube)[:5]),
                                   ndi.distance_transform_edt(cube).ravel()[np.flatnonzero(cube)[:5]])
+
+
+def test_rules_that_read_rho_search_geodesics_uncapped():
+    assert DenoiseParams(preset="thesis", pruning="global").cap_voxels == 36.0  # max(2t, t + 8)
+    for rule in ("derivative", "saliency"):
+        assert DenoiseParams(preset="thesis", pruning=rule).cap_voxels == UNCAPPED_GEODESIC
+        assert DenoiseParams(preset="thesis", pruning=rule, geodesic_cap=50.0).cap_voxels == 50.0

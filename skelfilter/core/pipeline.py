@@ -121,10 +121,10 @@ def saliency_stage(volume, params, progress):
             kept = rho_plus >= params.threshold_voxels
         elif params.pruning == "derivative":  # eq. 4.4: undefined sigma_bar is never ligature
             kept = selection.root_component((rho >= params.threshold_voxels) & ~(sigma_bar <= params.k),
-                                           adjacency, rho)
+                                            adjacency, rho, radius)
         else:  # eq. 3.2
             kept = selection.root_component(selection.saliency_measure(rho, radius) >= params.saliency_threshold,
-                                           adjacency, rho)
+                                            adjacency, rho, radius)
         if params.thin_radius_voxels is not None:
             kept |= selection.thin_part(voxels, a_flat, b_flat, radius, shape, params.thin_radius_voxels)
             kept &= ~selection.detached_noise(kept, adjacency, radius, params.thin_radius_voxels)

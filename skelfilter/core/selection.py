@@ -25,7 +25,7 @@ def saliency_measure(rho, radius):
         np.float32)
 
 
-def root_component(selected, adjacency, rho):
+def root_component(selected, adjacency, rho, radius=None):
     """The connectivity opening ``Gamma_y`` of the selected skeleton voxels at the root (eq. 2.3, 3.2, 4.4).
 
     The root ``y`` is the voxel of largest ``rho``, where the core skeleton is (§3.1.1). Two readings
@@ -33,7 +33,9 @@ def root_component(selected, adjacency, rho):
     global maximum of ``rho`` every step goes down, so with ``v = grad rho`` the derivative there is
     negative and the literal root would select nothing); and each connected component of the skeleton
     gets its own root, since the thesis defines the operator on a shape of one component and a shape of
-    several would otherwise lose every body but one.
+    several would otherwise lose every body but one. Ties of ``rho`` (geodesic searches stop at a cap,
+    `DenoiseParams.cap_voxels`, so the whole core can share the largest value) go to the largest
+    ``radius`` (``D``), the middle of the core, then to the first voxel.
 
     Returns
     -------
@@ -57,7 +59,9 @@ def root_component(selected, adjacency, rho):
     graph = csr_matrix((np.ones(int(both.sum()), dtype=np.int8), (rows[both], indices[both])), shape=(n, n))
     _, part = connected_components(graph, directed=False)
     candidates = np.flatnonzero(selected)
-    order = candidates[np.lexsort((candidates, -np.asarray(rho, dtype=np.float64)[candidates], whole[candidates]))]
+    depth = np.zeros(n) if radius is None else -np.asarray(radius, dtype=np.float64)
+    order = candidates[np.lexsort((candidates, depth[candidates], -np.asarray(rho, dtype=np.float64)[candidates],
+                                   whole[candidates]))]
     first = np.ones(len(order), dtype=bool)
     first[1:] = whole[order[1:]] != whole[order[:-1]]
     rooted = np.zeros(part.max() + 1, dtype=bool)
