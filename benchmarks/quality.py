@@ -7,7 +7,7 @@ the defaults on a tuning split of shapes and report a held-out split apart (not 
 Cases are shapes (`shapes.SHAPES`) x noise kinds (`NOISE_KINDS`) x seeds (`SEEDS`): the thesis' noise
 (§7.2) on the shape's voxelization at ``--resolution`` voxels (160), as a marching-cubes mesh. The
 shapes of `HELD_OUT` form the held-out split. skelfilter's variants (``DenoiseParams(resolution=...,
-**overrides)``, default ``default`` and ``thesis:preset=thesis``) denoise the marching-cubes mesh; the
+**overrides)``, default ``default`` and ``thesis:preset=thesis-tuned``) denoise the marching-cubes mesh; the
 rivals (`RIVALS`) get it decimated to at most `MAX_FACES` faces as ``skelfilter compare`` does, run in
 niced child processes and are cached on disk (``--cache``, keyed by case, rival and a hash of the
 noisy mesh; ``--refresh`` recomputes). The noisy meshes and their voxel masks are cached too.
@@ -59,7 +59,7 @@ NOISE_KINDS = {
 SEEDS = (1, 2)
 HELD_OUT = ("spot", "l-bracket", "twelve", "stool", "gear")  # reported apart: never look at them while tuning
 QUICK_SHAPES = ("cube", "fandisk", "block", "l-bracket")
-DEFAULT_VARIANTS = ("default", "thesis:preset=thesis")
+DEFAULT_VARIANTS = ("default", "thesis:preset=thesis-tuned")
 SCRIPTS = os.path.join(ROOT, "skelfilter", "evaluation", "comparison", "scripts")
 RIVALS = {m.name: m for m in (
     Method("laplacian", "meshlab", script=os.path.join(SCRIPTS, "laplacian_surface_preserving.mlx")),
