@@ -10,14 +10,17 @@ ABSOLUTE = "absolute"  # a length in voxels of the grid
 RELATIVE = "relative"  # a fraction of the longest side of the model's bounding box
 
 
-def parameter(default, label, help, unit="", choices=None, measure="", limits=None):
+def parameter(default, label, help, unit="", choices=None, measure="", limits=None, applies=None):
     """A parameter: ``label`` is MeshLab's short name for it, ``help`` its description, ``limits``
-    the closed range ``(low, high)`` of a number (checked by `check_limits`)."""
+    the closed range ``(low, high)`` of a number (checked by `check_limits`), ``applies`` where it
+    takes effect, ``{other field: its values}`` (any one of them; checked by `check_applies`)."""
     meta = {"label": label, "help": help, "unit": unit, "measure": measure}
     if choices is not None:
         meta["choices"] = tuple(choices)
     if limits is not None:
         meta["limits"] = limits
+    if applies is not None:
+        meta["applies"] = {name: tuple(values) for name, values in applies.items()}
     return field(default=default, metadata=meta)
 
 
@@ -42,6 +45,23 @@ def check_limits(params):
         if not (math.isfinite(value) and low <= value <= high):
             raise ParameterError(f"{f.name} must be {'an integer' if integral else 'a number'} in "
                                  f"[{low:g}, {high:g}], got {value!r}")
+
+
+def check_applies(params):
+    """A field set away from its default only where it takes effect (its ``applies``).
+
+    Raises
+    ------
+    ParameterError
+        Naming the field and the choices it needs.
+    """
+    for f in fields(params):
+        applies = f.metadata.get("applies")
+        if applies is None or getattr(params, f.name) == f.default:
+            continue
+        if not any(getattr(params, name) in values for name, values in applies.items()):
+            needs = " or ".join(f"{name} {'/'.join(values)}" for name, values in applies.items())
+            raise ParameterError(f"{f.name} takes effect only with {needs}")
 
 
 def build(cls, base=None, **values):

@@ -8,13 +8,8 @@ builds the MeshLab-style filter descriptions from these dataclasses, and the CLI
 flags, the Python and MeshSet defaults, the .mlx scripts and ``docs/filters.md``
 derive from those.
 
-Three presets fix the method's main choices: ``thesis`` is the thesis' pipeline as printed, with its
-defaults (§8.1.1-8.1.2: both stages, t = 18 voxels, eq. 5.6 as printed); ``thesis-tuned`` the same with
-two readings this project took before following the text literally (rho+ from the neighbours ahead
-along v, no derivative below rho = 7 voxels), kept so that its figures stay reproducible; ``default``
-is what measured best on this project's quality benchmark (``benchmarks/quality.py``): the foreground
-stage only and t = 30 voxels of a 160-voxel grid, scaled with the resolution. Fields left unset
-(``None``, or ``"preset"`` for a choice) take the preset's value.
+The presets (:mod:`skelfilter.presets`) fill the fields left unset (``None``, or ``"preset"`` for a
+choice).
 """
 
 import math
@@ -24,30 +19,9 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from skelfilter.errors import ParameterError
-from skelfilter.parameter_fields import ABSOLUTE, RELATIVE, check_limits
+from skelfilter.parameter_fields import ABSOLUTE, RELATIVE, check_applies, check_limits
 from skelfilter.parameter_fields import parameter as _p
-
-# What each preset sets when the field is left unset.
-_THESIS = {"stages": "both", "threshold": 18.0, "threshold_relative": None, "cap_factor": 2.0,
-           "unchanged_surface": "reconstruction", "thin_radius_relative": 1.0, "output_mesh": "closed",
-           "keep_features": "off", "fine_pass": "off"}
-PRESETS = {
-    "default": {"stages": "foreground", "threshold": None, "threshold_relative": 30.0 / 160.0,
-                "cap_factor": 1.0, "unchanged_surface": "input", "thin_radius_relative": 4.0 / 160.0,
-                "output_mesh": "auto", "keep_features": "on", "fine_pass": "on",
-                "rho_plus_from": "ahead", "derivative_min_rho": 7.0},
-    # §8.1.1-8.1.2 as printed: eq. 5.6 over every visited neighbour, sigma_bar wherever eq. 4.3 allows
-    # and the voxel has two distinct feature points (rho >= 1; rho = 0 has no feature pair, eq. 3.6).
-    "thesis": {**_THESIS, "rho_plus_from": "any", "derivative_min_rho": 1.0},
-    # The thesis preset before it followed the text literally (its figures are kept bit for bit):
-    # rho+ from the neighbours ahead along v and no sigma_bar below rho = 7, as the default.
-    "thesis-tuned": {**_THESIS, "rho_plus_from": "ahead", "derivative_min_rho": 7.0},
-}
-# The cap of the geodesic searches for the rules that read rho itself (eq. 3.1, 4.2 with Gamma_y): past a
-# cap rho would be constant along the core, where sigma_bar would fall to 0 and rho / D towards 0.
-UNCAPPED_GEODESIC = 1e6
-# The fields a preset fills where they are left unset ("preset" for a choice, None for a number).
-PRESET_CHOICES = ("stages", "unchanged_surface", "output_mesh", "keep_features", "fine_pass", "rho_plus_from")
+from skelfilter.presets import PRESET_CHOICES, PRESETS, UNCAPPED_GEODESIC
 
 
 @dataclass(frozen=True)
@@ -216,6 +190,7 @@ class DenoiseParams:
         "a core sheet has rho / D >= 2 (its feature points lie on opposite sides, at least 2 D apart "
         "along the boundary), a ligature sheet's falls towards 0 as D grows along it",
         limits=(1e-6, 1000),
+        applies={"pruning": ("saliency",)},
     )
     stages: str = _p(
         "preset",
@@ -273,15 +248,37 @@ class DenoiseParams:
     skeleton: str = _p(
         "ie",
         "Skeleton rule",
-        "surface skeleton rule: IE (eq. 7.7, E >= 1) or IMA (eq. 7.1-7.2)",
-        choices=("ie", "ima"),
+        "surface skeleton rule: IE (eq. 7.7, E >= 1), IMA (eq. 7.1-7.2) or USM (§7.1.2: the voxels where "
+        "the boundary's mass, advected along the contraction of the shape smoothed by the USM smoothing, "
+        "reaches a density above the USM least density, eq. 7.8-7.11; neither thin nor always centred)",
+        choices=("ie", "ima", "usm"),
     )
     velocity: str = _p(
         "feature",
         "Velocity field",
-        "velocity field v of the derivative measure: feature-point based (eq. 4.16), grad D (eq. 4.7) "
-        "or grad rho (eq. 4.5, differences along the skeleton)",
-        choices=("feature", "edt-gradient", "importance-gradient"),
+        "velocity field v of the derivative measure: feature-point based (eq. 4.16), grad D (eq. 4.7), "
+        "grad rho (eq. 4.5, differences along the skeleton) or unified (the USM contraction direction, "
+        "eq. 4.10: grad D of the shape smoothed by the USM smoothing)",
+        choices=("feature", "edt-gradient", "importance-gradient", "unified"),
+    )
+    usm_smoothing: float = _p(
+        1.0,
+        "USM smoothing",
+        "standard deviation of the Gaussian the shape is smoothed with before the USM contraction "
+        "(§7.1.3); 0: none",
+        "voxels",
+        measure=ABSOLUTE,
+        limits=(0, 100),
+        applies={"skeleton": ("usm",), "velocity": ("unified",)},
+    )
+    usm_min_density: float = _p(
+        1.0,
+        "USM least density",
+        "with the USM skeleton, voxels whose largest advected density lambda (eq. 7.11) exceeds this are "
+        "skeleton; 1 is the mass of one boundary voxel, which a front carries past voxels off the skeleton",
+        "boundary voxels",
+        limits=(0, 1e9),
+        applies={"skeleton": ("usm",)},
     )
 
     def __post_init__(self):
@@ -291,6 +288,7 @@ class DenoiseParams:
             object.__setattr__(self, "fine_pass", "on" if self.fine_pass else "off")
         self._apply_preset()
         check_limits(self)
+        check_applies(self)
         for f in fields(self):
             choices = f.metadata.get("choices")
             if choices and getattr(self, f.name) not in choices:

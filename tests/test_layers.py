@@ -10,7 +10,7 @@ PACKAGE = pathlib.Path(__file__).resolve().parent.parent / "skelfilter"
 
 # Bottom to top; layers of one rank are siblings and may not import each other.
 RANKS = {
-    "errors": 0, "parameter_fields": 1, "params": 1.5, "runtime": 2,
+    "errors": 0, "parameter_fields": 1, "presets": 1, "params": 1.5, "runtime": 2,
     "core": 3, "io": 3,
     "mesh": 4, "meshlab": 5,
     "evaluation": 6, "jobs": 6,

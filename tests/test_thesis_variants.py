@@ -13,7 +13,8 @@ from skelfilter.core.neighbourhood import OFFSETS_26, unravel
 from skelfilter.core.saliency import direct_rho_plus, importance_gradient_velocity
 from skelfilter.core.selection import root_component, saliency_measure
 from skelfilter.mesh.voxelize import voxelize
-from skelfilter.params import UNCAPPED_GEODESIC, DenoiseParams
+from skelfilter.params import DenoiseParams
+from skelfilter.presets import UNCAPPED_GEODESIC
 
 SHAPE = (12, 13, 14)
 

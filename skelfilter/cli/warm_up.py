@@ -36,7 +36,8 @@ def compile_kernels():
         mesh_pipeline.denoise_mesh(noisy, params)
     # The thesis' alternatives to its final pipeline (their kernels and argument types).
     for variant in ({"pruning": "direct", "edt_filter": "opening"}, {"edt_filter": "explicit-mean"},
-                    {"edt_filter": "least-squares", "velocity": "importance-gradient"}):
+                    {"edt_filter": "least-squares", "velocity": "importance-gradient"},
+                    {"skeleton": "usm", "velocity": "unified"}):
         mesh_pipeline.denoise_mesh(noisy, DenoiseParams(resolution=RESOLUTION, preset="thesis", **variant))
     # An open mesh: the voxelization's hole handling.
     half = trimesh.Trimesh(clean.vertices, clean.faces[clean.triangles_center[:, 2] < clean.centroid[2]],

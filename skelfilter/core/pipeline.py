@@ -10,47 +10,15 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage
 
-from skelfilter.core import (
-    edt_filters,
-    feature_restore,
-    importance,
-    noise_estimate,
-    reconstruct,
-    saliency,
-    selection,
-    skeleton,
-    surface_field,
-    volume_fine_pass,
-)
+from skelfilter.core import edt_filters, feature_restore, noise_estimate, surface_field, volume_fine_pass
 from skelfilter.core import spacing as voxel_spacing
-from skelfilter.core.distance import distance_and_features
-from skelfilter.core.neighbourhood import bounding_box, unravel
+from skelfilter.core.neighbourhood import bounding_box
+from skelfilter.core.stage import saliency_stage
 from skelfilter.errors import InputError, ParameterError
 from skelfilter.parameter_fields import build
 from skelfilter.params import DenoiseParams, VolumeParams
 from skelfilter.runtime.memory import check_grid_fits
 from skelfilter.runtime.progress import Progress
-
-
-@dataclass
-class SkeletonData:
-    """Per-skeleton-voxel quantities of one stage (flat arrays aligned with ``voxels``)."""
-
-    voxels: np.ndarray  # flat indices into the stage's volume
-    distance: np.ndarray  # D
-    rho: np.ndarray  # importance
-    sigma_bar: np.ndarray  # derivative measure (NaN: undefined, eq. 4.3, or not used by the rule)
-    rho_plus: np.ndarray  # streamline importance, eq. 5.6 or 5.3 (NaN for the rules of eq. 3.2 and 4.4)
-    kept: np.ndarray  # the pruning rule's selection
-    radii: np.ndarray  # reconstruction radii of the kept voxels (after the EDT filter)
-    expansions: np.ndarray = None  # A* nodes settled per geodesic query
-
-
-@dataclass
-class StageResult:
-    mask: np.ndarray  # the reconstruction, a subset of the stage's input set
-    field: np.ndarray  # signed distance-like field, > 0 inside the reconstruction
-    skeleton: SkeletonData
 
 
 @dataclass
@@ -67,110 +35,6 @@ class DenoiseResult:
 def resolve_params(params=None, **overrides):
     """A DenoiseParams from an instance and/or keyword overrides."""
     return build(DenoiseParams, params, **overrides)
-
-
-def saliency_stage(volume, params, progress):
-    """One stage (§8.1.1 steps 1–5) on the set ``volume``; returns its reconstruction."""
-    shape = volume.shape
-    with progress.step("distance transform"):
-        distance, features = distance_and_features(volume)
-    with progress.step("skeleton"):
-        if params.skeleton == "ie":
-            voxels = skeleton.ie_skeleton(distance)
-        else:
-            voxels = skeleton.ima_skeleton(volume, features)
-        a_flat, b_flat = skeleton.extended_feature_points(volume, features, voxels)
-        del features
-        adjacency = saliency.skeleton_adjacency(voxels, shape)
-    with progress.step("importance"):
-        expansions = None
-        if params.importance == "geodesic":
-            rho, expansions = importance.geodesic_importance(
-                importance.boundary_layer(volume), a_flat, b_flat, params.cap_voxels
-            )
-        else:
-            if params.importance == "estimate":
-                rho = importance.geodesic_estimate(distance, a_flat, b_flat)
-            else:
-                rho = importance.euclidean_importance(shape, a_flat, b_flat)
-            # Feature points on separate surfaces (object and frame) are
-            # infinitely far apart along the boundary, whatever the proxy says.
-            far = importance.disconnected_pairs(importance.boundary_layer(volume), a_flat, b_flat)
-            rho[far] = np.float32(params.cap_voxels)
-    radius = distance.reshape(-1)[voxels]
-    sigma_bar = rho_plus = np.full(len(voxels), np.nan, dtype=np.float32)
-    if params.pruning != "saliency":
-        with progress.step("derivative measure"):
-            v = _velocity(params.velocity, distance, voxels, shape, a_flat, b_flat, rho)
-            sigma_bar = saliency.derivative_measure(
-                rho, distance, voxels, v, adjacency, params.derivative_guard,
-                min_cosine=saliency.STREAM_COSINE, min_rho=params.derivative_min_rho,
-            )
-    with progress.step("pruning"):
-        if params.pruning == "global":
-            # Eq. 5.6; with rho_plus_from 'ahead' restricted to the neighbours ahead along v, the
-            # cone that the derivative measure steps in (the streamlines of eq. 5.1).
-            ahead = params.rho_plus_from == "ahead"
-            rho_plus = saliency.rho_plus(
-                rho, sigma_bar, adjacency, params.k, velocity=v if ahead else None, skeleton=voxels, shape=shape,
-                min_cosine=saliency.STREAM_COSINE, min_rho=params.derivative_min_rho,
-            )
-        elif params.pruning == "direct":
-            rho_plus = saliency.direct_rho_plus(rho, sigma_bar, adjacency, v, voxels, shape, params.k)
-        if params.pruning in ("global", "direct"):
-            kept = rho_plus >= params.threshold_voxels
-        elif params.pruning == "derivative":  # eq. 4.4: undefined sigma_bar is never ligature
-            kept = selection.root_component((rho >= params.threshold_voxels) & ~(sigma_bar <= params.k),
-                                            adjacency, rho, radius)
-        else:  # eq. 3.2
-            kept = selection.root_component(selection.saliency_measure(rho, radius) >= params.saliency_threshold,
-                                            adjacency, rho, radius)
-        if params.thin_radius_voxels is not None:
-            kept |= selection.thin_part(voxels, a_flat, b_flat, radius, shape, params.thin_radius_voxels)
-            kept &= ~selection.detached_noise(kept, adjacency, radius, params.thin_radius_voxels)
-        centres = voxels[kept]
-        pruned_features = None
-        if params.edt_filter == "flat":
-            pruned_features = (unravel(a_flat[~kept], shape), unravel(b_flat[~kept], shape))
-        del adjacency, a_flat, b_flat
-    with progress.step("EDT filter"):
-        radii = edt_filters.filtered_radii(params.edt_filter, distance, centres, params.minify_radius,
-                                           pruned_features)
-        del pruned_features
-        # Balls of radius D reach the centres of the nearest outside voxels;
-        # shrunk by half a voxel they end on the voxel boundary, so the
-        # reconstruction is the voxel set whose centres lie inside the
-        # union, and ripples under half a voxel vanish.
-        radii = np.maximum(radii - surface_field.SURFACE_OFFSET, 0.0)
-    data = SkeletonData(
-        voxels=voxels,
-        distance=distance.reshape(-1)[voxels],
-        rho=rho,
-        sigma_bar=sigma_bar,
-        rho_plus=rho_plus,
-        kept=kept,
-        radii=radii,
-        expansions=expansions,
-    )
-    del distance
-    with progress.step("reconstruction"):
-        mask, phi = reconstruct.union_of_balls(shape, centres, radii)
-        # A filter that raised a radius above D must not add to the shape (eq. 6.1, Lemma 7); balls no
-        # larger than D - 1/2 hold no voxel of the complement, so this changes nothing for the others.
-        outside = mask & ~volume
-        mask &= volume
-        np.minimum(phi, -1e-3, out=phi, where=outside)
-        del outside
-    return StageResult(mask=mask, field=phi, skeleton=data)
-
-
-def _velocity(name, distance, voxels, shape, a_flat, b_flat, rho):
-    """The velocity field ``v`` of the derivative measure at the skeleton voxels (§4.2.1)."""
-    if name == "feature":
-        return saliency.feature_velocity(voxels, shape, unravel(a_flat, shape), unravel(b_flat, shape))
-    if name == "edt-gradient":
-        return saliency.edt_gradient_velocity(distance, voxels)
-    return saliency.importance_gradient_velocity(rho, voxels, shape)
 
 
 def denoise_padded(volume, params, progress):
