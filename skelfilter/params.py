@@ -21,7 +21,7 @@ import numpy as np
 from skelfilter.errors import ParameterError
 from skelfilter.parameter_fields import ABSOLUTE, RELATIVE, check_applies, check_limits
 from skelfilter.parameter_fields import parameter as _p
-from skelfilter.presets import PRESET_CHOICES, PRESETS, UNCAPPED_GEODESIC
+from skelfilter.presets import PRESET_CHOICES, PRESETS, RHO_RULE_CAP_FACTOR
 
 
 @dataclass(frozen=True)
@@ -239,8 +239,9 @@ class DenoiseParams:
         "Geodesic search cap",
         "geodesics are searched up to this length and longer ones are set to it; any cap above t "
         "leaves the kept/pruned decision of every voxel unchanged in practice with the streamline "
-        "rules (unset: t + 8 with the default preset, max(2t, t+8) with the thesis'; uncapped with "
-        "the 'derivative' and 'saliency' pruning rules, whose measures read rho itself)",
+        "rules (unset: t + 8 with the default preset, max(2t, t+8) with the thesis'; 4t with the "
+        "'derivative' and 'saliency' pruning rules, whose measures read rho itself and count as met "
+        "where rho reaches the cap)",
         "voxels",
         measure=ABSOLUTE,
         limits=(1e-6, 20000),
@@ -351,9 +352,9 @@ class DenoiseParams:
         """Length at which geodesic searches stop (see ``geodesic_cap``)."""
         if self.geodesic_cap is not None:
             return float(self.geodesic_cap)
-        if self.pruning in ("derivative", "saliency"):
-            return UNCAPPED_GEODESIC
         t = self.threshold_voxels
+        if self.pruning in ("derivative", "saliency"):
+            return RHO_RULE_CAP_FACTOR * t
         return max(PRESETS[self.preset]["cap_factor"] * t, t + 8.0)
 
     @property

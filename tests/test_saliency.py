@@ -164,6 +164,23 @@ def test_derivative_measure_on_sheets():
     assert np.isnan(sig).all()
 
 
+def test_derivative_measure_is_undefined_where_the_step_reaches_the_cap():
+    shape = (20, 18, 9)
+    s, c = sheet(shape, 4)
+    distance = np.broadcast_to(np.arange(shape[0], dtype=np.float32)[:, None, None], shape).copy()
+    v = np.tile(np.array([[1.0, 0.0, 0.0]], np.float32), (len(s), 1))
+    adj = skeleton_adjacency(s, shape)
+    rho = np.minimum(2.0 * c[:, 0], 20.0).astype(np.float32)  # rho = 2 D, capped at 20 from x = 10 on
+    free = derivative_measure(rho, distance, s, v, adj, guard=0.1)
+    capped = derivative_measure(rho, distance, s, v, adj, guard=0.1, max_rho=20.0)
+    interior = (c[:, 1] > 3) & (c[:, 1] < shape[1] - 4)
+    assert np.allclose(free[interior & (c[:, 0] >= 10) & (c[:, 0] < shape[0] - 4)], 0.0)  # the cap looks like ligature
+    assert np.isnan(capped[c[:, 0] >= 9]).all()  # steps that reach the cap: undefined
+    before = interior & (c[:, 0] > 3) & (c[:, 0] < 9)
+    np.testing.assert_array_equal(capped[before], free[before])
+    assert np.allclose(capped[before], 2.0, atol=1e-2)
+
+
 def test_derivative_measure_is_undefined_below_min_rho():
     shape = (20, 18, 9)
     s, c = sheet(shape, 4)

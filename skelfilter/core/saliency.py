@@ -111,7 +111,7 @@ def importance_gradient_velocity(rho, skeleton, shape):
 
 
 def derivative_measure(rho, distance, skeleton, velocity, adjacency, guard=0.1, min_cosine=STREAM_COSINE,
-                       min_rho=0.0):
+                       min_rho=0.0, max_rho=np.inf):
     """Derivative measure ``sigma_bar = (grad rho . v) / (grad D . v)`` (eq. 4.2).
 
     Both directional derivatives are taken along the same step on the
@@ -130,14 +130,17 @@ def derivative_measure(rho, distance, skeleton, velocity, adjacency, guard=0.1, 
         1, sqrt 2, sqrt 3 and square roots of integers), so on structures a few
         voxels across (the voxel steps of slanted or curved surfaces) the
         one-step ratio is quantization noise, not the ligature signal.
+    max_rho : float
+        Where the step starts or ends at this importance or above (the cap of the
+        geodesic searches, which hides the rise of ``rho``) the measure is undefined.
 
     Returns
     -------
     sigma_bar : float32 ndarray
         NaN where ``D`` grows by less than ``guard`` per voxel along the step
         (eq. 4.3), where no skeleton neighbour lies ahead along ``v``, or where
-        ``rho < min_rho``: there the measure is undefined and the voxel is
-        never a ligature candidate.
+        ``rho < min_rho`` or the step reaches ``max_rho``: there the measure is
+        undefined and the voxel is never a ligature candidate.
 
     References
     ----------
@@ -149,13 +152,13 @@ def derivative_measure(rho, distance, skeleton, velocity, adjacency, guard=0.1, 
     d_skel = distance.reshape(-1)[skeleton].astype(np.float64)
     rho = np.asarray(rho, dtype=np.float64)
     sigma = _step_ratio(coords, rho, d_skel, np.asarray(velocity, dtype=np.float64), indptr, indices,
-                        guard, min_cosine)
+                        guard, min_cosine, float(max_rho))
     sigma[rho < min_rho] = np.nan
     return sigma
 
 
 @numba.njit(cache=True, parallel=True)
-def _step_ratio(coords, rho, dist, velocity, indptr, indices, guard, min_cosine):
+def _step_ratio(coords, rho, dist, velocity, indptr, indices, guard, min_cosine, max_rho):
     n = coords.shape[0]
     out = np.full(n, np.nan, dtype=np.float32)
     for i in numba.prange(n):
@@ -176,7 +179,7 @@ def _step_ratio(coords, rho, dist, velocity, indptr, indices, guard, min_cosine)
         if best_j < 0:
             continue
         rise = dist[best_j] - dist[i]
-        if rise < guard * best_len:  # eq. 4.3
+        if rise < guard * best_len or rho[best_j] >= max_rho or rho[i] >= max_rho:  # eq. 4.3, the cap
             continue
         out[i] = (rho[best_j] - rho[i]) / rise  # eq. 4.2
     return out

@@ -25,7 +25,7 @@ def saliency_measure(rho, radius):
         np.float32)
 
 
-def root_component(selected, adjacency, rho, radius=None):
+def root_component(selected, adjacency, rho, radius=None, candidates=None):
     """The connectivity opening ``Gamma_y`` of the selected skeleton voxels at the root (eq. 2.3, 3.2, 4.4).
 
     The root ``y`` is the voxel of largest ``rho``, where the core skeleton is (§3.1.1). Two readings
@@ -35,7 +35,11 @@ def root_component(selected, adjacency, rho, radius=None):
     gets its own root, since the thesis defines the operator on a shape of one component and a shape of
     several would otherwise lose every body but one. Ties of ``rho`` (geodesic searches stop at a cap,
     `DenoiseParams.cap_voxels`, so the whole core can share the largest value) go to the largest
-    ``radius`` (``D``), the middle of the core, then to the first voxel.
+    ``radius`` (``D``), the middle of the core, then to the first voxel. Where ``candidates`` is given,
+    the root is among the selected candidates of a component if it has any: the pipeline leaves out the
+    voxels whose feature points lie on different boundary components (a cavity the noise closed off,
+    an object and the box's frame), whose infinite ``rho`` says which surfaces they separate, not
+    that they are central.
 
     Returns
     -------
@@ -58,10 +62,11 @@ def root_component(selected, adjacency, rho, radius=None):
     both = selected[rows] & selected[indices]
     graph = csr_matrix((np.ones(int(both.sum()), dtype=np.int8), (rows[both], indices[both])), shape=(n, n))
     _, part = connected_components(graph, directed=False)
-    candidates = np.flatnonzero(selected)
     depth = np.zeros(n) if radius is None else -np.asarray(radius, dtype=np.float64)
-    order = candidates[np.lexsort((candidates, depth[candidates], -np.asarray(rho, dtype=np.float64)[candidates],
-                                   whole[candidates]))]
+    other = np.zeros(n, dtype=bool) if candidates is None else ~np.asarray(candidates, dtype=bool)
+    chosen = np.flatnonzero(selected)
+    order = chosen[np.lexsort((chosen, depth[chosen], -np.asarray(rho, dtype=np.float64)[chosen], other[chosen],
+                               whole[chosen]))]
     first = np.ones(len(order), dtype=bool)
     first[1:] = whole[order[1:]] != whole[order[:-1]]
     rooted = np.zeros(part.max() + 1, dtype=bool)

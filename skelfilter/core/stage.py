@@ -103,6 +103,7 @@ def pruned_stage(volume, fields, params, progress):
     shape = volume.shape
     distance, voxels, a_flat, b_flat, adjacency, rho, expansions = fields.take()
     radius = distance.reshape(-1)[voxels]
+    cap = float(np.float32(params.cap_voxels))  # rho is float32: the value the longer searches were given
     sigma_bar = rho_plus = np.full(len(voxels), np.nan, dtype=np.float32)
     if params.pruning != "saliency":
         with progress.step("derivative measure"):
@@ -110,6 +111,7 @@ def pruned_stage(volume, fields, params, progress):
             sigma_bar = saliency.derivative_measure(
                 rho, distance, voxels, v, adjacency, params.derivative_guard,
                 min_cosine=saliency.STREAM_COSINE, min_rho=params.derivative_min_rho,
+                max_rho=cap if params.pruning == "derivative" else np.inf,
             )
     with progress.step("pruning"):
         if params.pruning == "global":
@@ -124,12 +126,14 @@ def pruned_stage(volume, fields, params, progress):
             rho_plus = saliency.direct_rho_plus(rho, sigma_bar, adjacency, v, voxels, shape, params.k)
         if params.pruning in ("global", "direct"):
             kept = rho_plus >= params.threshold_voxels
-        elif params.pruning == "derivative":  # eq. 4.4: undefined sigma_bar is never ligature
-            kept = selection.root_component((rho >= params.threshold_voxels) & ~(sigma_bar <= params.k),
-                                            adjacency, rho, radius)
-        else:  # eq. 3.2
-            kept = selection.root_component(selection.saliency_measure(rho, radius) >= params.saliency_threshold,
-                                            adjacency, rho, radius)
+        else:
+            if params.pruning == "derivative":  # eq. 4.4: undefined sigma_bar is never ligature
+                selected = (rho >= params.threshold_voxels) & ~(sigma_bar <= params.k)
+            else:  # eq. 3.2; rho at the cap stands for a larger one
+                selected = ((selection.saliency_measure(rho, radius) >= params.saliency_threshold)
+                            | (rho >= cap))
+            joined = ~importance.disconnected_pairs(importance.boundary_layer(volume), a_flat, b_flat)
+            kept = selection.root_component(selected, adjacency, rho, radius, candidates=joined)
         if params.thin_radius_voxels is not None:
             kept |= selection.thin_part(voxels, a_flat, b_flat, radius, shape, params.thin_radius_voxels)
             kept &= ~selection.detached_noise(kept, adjacency, radius, params.thin_radius_voxels)
