@@ -21,7 +21,7 @@ from numba import njit, prange
 from scipy import ndimage
 
 from skelfilter.core.distance import distance_and_features, gradient_at
-from skelfilter.core.neighbourhood import OFFSETS_6, flat_offsets
+from skelfilter.core.neighbourhood import OFFSETS_6, bounding_box, flat_offsets
 
 TIME_STEP = 0.5  # the donor-cell scheme is stable for dt * sum_k |u_k| <= 1, and sum_k |u_k| <= sqrt(3)
 CROSSINGS = 2.0  # the advection runs for the time mass takes to cross the shape's box this many times
@@ -115,7 +115,7 @@ def max_density(volume, smoothing=0.0, steps=None):
     neighbours = lookup[inside[:, None] + flat_offsets(shape.shape, OFFSETS_6)[None, :]]
     mass = (distance.reshape(-1)[inside] == 1).astype(np.float64)  # unit mass on the boundary
     if steps is None:
-        extent = np.ptp(np.argwhere(shape), axis=0).max() + 1
+        extent = max(side.stop - side.start for side in bounding_box(shape))
         steps = int(np.ceil(CROSSINGS * extent / TIME_STEP))
     density.reshape(-1)[inside] = _advect(mass, u, neighbours, int(steps), TIME_STEP)
     return density
