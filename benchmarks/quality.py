@@ -40,9 +40,9 @@ from quality_tables import SPLITS
 from skelfilter.core.noise import NoiseResult
 from skelfilter.evaluation import metrics
 from skelfilter.evaluation.comparison import render, report
-from skelfilter.evaluation.comparison.config import Method
+from skelfilter.evaluation.comparison.config import Method, slug
 from skelfilter.evaluation.comparison.methods import run_method
-from skelfilter.evaluation.comparison.run import Reporter, decimate, slug, versions
+from skelfilter.evaluation.comparison.run import Reporter, decimate, versions
 from skelfilter.io import mesh_files
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.mesh.voxelize import Grid, grid_for_bounds, voxelize_on_grid

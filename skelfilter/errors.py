@@ -15,3 +15,8 @@ class ParameterError(SkelfilterError, ValueError):
 
 class ResourceError(SkelfilterError):
     """The requested grid would not fit in the memory available."""
+
+
+class OutputError(SkelfilterError):
+    """An output cannot be written: the system refused it (a full or read-only file system, an
+    immutable file, a name too long) or it would replace a file the run did not make."""

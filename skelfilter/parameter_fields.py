@@ -2,7 +2,10 @@
 every entry point goes through (`skelfilter.params` declares the parameters with them)."""
 
 import math
+import numbers
 from dataclasses import field, fields, replace
+
+import numpy as np
 
 from skelfilter.errors import ParameterError
 
@@ -27,6 +30,7 @@ def parameter(default, label, help, unit="", choices=None, measure="", limits=No
 def check_limits(params):
     """Every number field of a parameter dataclass is a finite number of its type within its
     ``limits`` (None passes where the field allows it); the one check every entry point goes through.
+    NumPy numbers (``np.int64(32)``) are taken as the Python numbers they equal, and stored so.
 
     Raises
     ------
@@ -39,8 +43,11 @@ def check_limits(params):
         if limits is None or value is None:
             continue
         integral = "int" in str(f.type)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or (integral and not isinstance(value, int)):
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral if integral else numbers.Real):
             raise ParameterError(f"{f.name} must be {'an integer' if integral else 'a number'}, got {value!r}")
+        if isinstance(value, np.generic):
+            value = value.item()
+            object.__setattr__(params, f.name, value)  # a frozen dataclass, being built
         low, high = limits
         if not (math.isfinite(value) and low <= value <= high):
             raise ParameterError(f"{f.name} must be {'an integer' if integral else 'a number'} in "

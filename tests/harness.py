@@ -119,7 +119,10 @@ FAULTS = {"pause": pause_in, "meshlab": meshlab_child_fault, "batch-kill": kill_
 if __name__ == "__main__":
     fault, argument, separator, *cli_arguments = sys.argv[1:]
     assert separator == "--", "usage: harness.py FAULT ARGUMENT -- CLI-ARGUMENTS"
-    from skelfilter.cli.commands import main  # first: the CLI starts the libraries' threads with signals blocked
+    from skelfilter.runtime import signals
+
+    signals.block()  # as skelfilter.cli.main does first: the faults' imports start threads with the signals held
+    from skelfilter.cli import main
 
     FAULTS[fault](argument)
     sys.exit(main(cli_arguments))

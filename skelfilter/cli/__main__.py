@@ -1,5 +1,5 @@
 import sys
 
-from skelfilter.cli.commands import main
+from skelfilter.cli import main
 
 sys.exit(main())

@@ -11,26 +11,19 @@ import logging
 import math
 import os
 import re
-import signal
 import sys
 import warnings
 
-# Libraries start native threads when they load (OpenBLAS, numba): started with SIGINT and SIGTERM
-# blocked, they never receive them (see skelfilter.runtime.signals).
-_MASK = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
-try:
-    from skelfilter.errors import InputError, SkelfilterError
-    from skelfilter.io import mesh_files
-    from skelfilter.jobs import denoise_file
-    from skelfilter.mesh import pipeline as mesh_pipeline
-    from skelfilter.meshlab import descriptions, pymeshlab_filters, scripts
-    from skelfilter.meshlab.descriptions import ADD_SKELETON_NOISE, SKELETON_SALIENCY_DENOISE
-    from skelfilter.params import DenoiseParams, NoiseParams, VolumeParams
-    from skelfilter.runtime import memory, signals
-    from skelfilter.runtime.extras import need
-    from skelfilter.runtime.progress import Progress
-finally:
-    signal.pthread_sigmask(signal.SIG_SETMASK, _MASK)
+from skelfilter.errors import InputError, SkelfilterError
+from skelfilter.io import mesh_files, output_files
+from skelfilter.jobs import denoise_file
+from skelfilter.mesh import pipeline as mesh_pipeline
+from skelfilter.meshlab import descriptions, pymeshlab_filters, scripts
+from skelfilter.meshlab.descriptions import ADD_SKELETON_NOISE, SKELETON_SALIENCY_DENOISE
+from skelfilter.params import DenoiseParams, NoiseParams, VolumeParams
+from skelfilter.runtime import memory, signals
+from skelfilter.runtime.extras import need
+from skelfilter.runtime.progress import Progress
 
 
 class _Parser(argparse.ArgumentParser):
@@ -223,8 +216,9 @@ def _batch(args):
 
         try:
             client = Client(args.scheduler, timeout="20s")
-        except OSError as exc:
-            raise InputError(f"--scheduler {args.scheduler}: cannot connect ({exc})") from None
+        except (OSError, ValueError, TypeError) as exc:  # refused, timed out, or not an address at all
+            raise InputError(f"--scheduler {args.scheduler}: cannot connect ({str(exc) or type(exc).__name__})") \
+                from None
     try:
         rows = batch.denoise_many(args.inputs, args.out, client=client, workers=args.workers, force=args.force,
                                   to=args.to, report=batch.progress_bar() if args.progress is not False else None,
@@ -241,9 +235,9 @@ def _batch(args):
 
 def _noise(args):
     params = _params(ADD_SKELETON_NOISE, args)
-    mesh_files.check_output(args.output, [args.input], mesh_files.MESH_FORMATS)
+    output_files.check_output(args.output, [args.input], mesh_files.MESH_FORMATS)
     mesh = mesh_files.load_mesh(args.input)
-    mesh_files.check_precision(mesh, args.output)
+    mesh_files.check_mesh_output(mesh, args.output)
     progress = Progress(enabled=args.progress, shield=True)
     noisy, _, _ = mesh_pipeline.noisy_mesh(mesh, params, progress)
     mesh_files.save_mesh(noisy, args.output, protect=[args.input])
@@ -251,7 +245,7 @@ def _noise(args):
 
 def _run_script(args):
     steps = scripts.read_script(args.script)
-    mesh_files.check_output(args.output, {args.input: "input", args.script: "script"}, mesh_files.MESH_FORMATS)
+    output_files.check_output(args.output, {args.input: "input", args.script: "script"}, mesh_files.MESH_FORMATS)
     mesh = mesh_files.load_mesh(args.input)
     progress = Progress(enabled=args.progress, shield=True)
     layers = scripts.run_steps(steps, mesh, args.timeout, progress)
@@ -305,19 +299,12 @@ def _compare(args):
 
     if args.config is not None and not os.path.isfile(args.config):
         raise InputError(f"{args.config}: no such configuration file")
+    if not args.out:
+        raise InputError("--out: the output folder's name is empty")
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise InputError(f"{args.out}: exists and is not a folder")
     config = load_config(args.config, jobs=args.jobs, resolution=args.resolution)
     run_compare(config, args.out, Reporter(enabled=args.progress is not False))
-
-
-class Terminated(KeyboardInterrupt):
-    """SIGTERM, raised where Python is, so that every ``finally`` and ``with`` cleans up (children,
-    temporary files) as on Ctrl-C."""
-
-
-def _terminate(signum, frame):
-    raise Terminated()
 
 
 # Library messages name parameters backticked (`threshold`); the CLI's names for them are its flags.
@@ -331,41 +318,79 @@ def _in_cli_terms(message):
                   else m.group(0), message)
 
 
+class _OneLineFormatter(logging.Formatter):
+    """``skelfilter: warning: …`` on one line: no traceback a library attaches to its record."""
+
+    def format(self, record):
+        return f"skelfilter: warning: {one_line(' '.join(record.getMessage().split()))}"
+
+
 def _route_library_messages(quiet):
     """Library warnings and log records become one ``skelfilter: warning: …`` line each, or nothing
     under ``--quiet``."""
     level = logging.CRITICAL + 1 if quiet else logging.WARNING
-    logging.basicConfig(level=level, format="skelfilter: warning: %(message)s", force=True)
+    logging.basicConfig(level=level, force=True)
     logging.root.handlers[0].setLevel(level)  # also for records of loggers with lower levels of their own
+    logging.root.handlers[0].setFormatter(_OneLineFormatter())
     if quiet:
         warnings.simplefilter("ignore")
         return
     warnings.showwarning = lambda message, category, *rest: print(
-        f"skelfilter: warning: {' '.join(str(message).split())}", file=sys.stderr)
+        f"skelfilter: warning: {one_line(' '.join(str(message).split()))}", file=sys.stderr)
+
+
+COMMANDS = {"denoise": _denoise, "noise": _noise, "run-script": _run_script, "export-script": _export_script,
+            "filters": _filters, "compare": _compare, "batch": _batch}
+
+
+def one_line(message):
+    """``message`` on one line: control characters (a newline in a file name) shown escaped."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in message)
+
+
+def run(argv=None):
+    """Run one command in this process; returns its exit status.
+
+    Called by :func:`skelfilter.cli.main`, which holds the signals and installs the handlers first:
+    they are let in here, inside the error handling, and held again as the command ends (with an
+    error or not), so that what it reports is one line and nothing interrupts the report.
+    """
+    try:
+        try:
+            signals.unblock()
+            args = build_parser().parse_args(argv)
+            _route_library_messages(getattr(args, "progress", None) is False)
+            memory.return_freed_memory()
+            signals.start_workers_shielded()
+            return COMMANDS[args.command](args) or 0
+        finally:
+            signals.block()  # from here to the exit a signal waits, and goes with the process
+    except BaseException as exc:  # noqa: BLE001 - each kind gets its line below; the rest is re-raised
+        return _exit_status(exc)
+
+
+def _exit_status(exc):
+    if isinstance(exc, SystemExit):
+        return exc.code
+    if isinstance(exc, BrokenPipeError):  # `skelfilter filters --meshlab | head`: quiet, as Unix tools are
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 128 + 13
+    if isinstance(exc, signals.Interrupted):
+        message, status = exc.word, exc.exit_status
+    elif isinstance(exc, KeyboardInterrupt):
+        message, status = "interrupted", 130
+    elif isinstance(exc, SkelfilterError):
+        message, status = f"error: {_in_cli_terms(str(exc))}", 2
+    elif isinstance(exc, MemoryError):
+        message, status = "error: out of memory (the input is too large for the memory available)", 2
+    else:
+        raise exc
+    print(f"skelfilter: {one_line(message)}", file=sys.stderr)
+    return status
 
 
 def main(argv=None):
-    args = build_parser().parse_args(argv)
-    _route_library_messages(getattr(args, "progress", None) is False)
-    previous = signal.signal(signal.SIGTERM, _terminate)
-    try:
-        memory.return_freed_memory()
-        signals.start_workers_shielded()
-        status = {"denoise": _denoise, "noise": _noise, "run-script": _run_script, "export-script": _export_script,
-                  "filters": _filters, "compare": _compare, "batch": _batch}[args.command](args)
-    except SkelfilterError as exc:
-        print(f"skelfilter: error: {_in_cli_terms(str(exc))}", file=sys.stderr)
-        return 2
-    except MemoryError:
-        print("skelfilter: error: out of memory; lower --resolution", file=sys.stderr)
-        return 2
-    except Terminated:
-        print("skelfilter: terminated", file=sys.stderr)
-        return 143
-    except KeyboardInterrupt:
-        print("skelfilter: interrupted", file=sys.stderr)
-        return 130
-    finally:
-        signal.signal(signal.SIGTERM, previous)
-    return status or 0
+    """The command line, as ``skelfilter`` runs it (:func:`skelfilter.cli.main`)."""
+    from skelfilter.cli import main as cli_main
 
+    return cli_main(argv)

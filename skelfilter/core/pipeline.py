@@ -14,9 +14,10 @@ from skelfilter.core import edt_filters, feature_restore, noise_estimate, surfac
 from skelfilter.core import spacing as voxel_spacing
 from skelfilter.core.neighbourhood import bounding_box
 from skelfilter.core.stage import saliency_stage
-from skelfilter.errors import InputError, ParameterError
+from skelfilter.errors import InputError, ParameterError, ResourceError
 from skelfilter.parameter_fields import build
 from skelfilter.params import DenoiseParams, VolumeParams
+from skelfilter.runtime import worker_threads
 from skelfilter.runtime.memory import check_grid_fits
 from skelfilter.runtime.progress import Progress
 
@@ -204,6 +205,15 @@ def denoise_volume(volume, params=None, progress=None, spacing=None, affine=None
     .. [2] A. Telea, "Feature preserving smoothing of shapes using saliency skeletons",
            Visualization in Medicine and Life Sciences II, Springer, 2012.
     """
+    worker_threads.start()
+    try:
+        return _denoise_volume(volume, params, progress, spacing, affine, overrides)
+    except MemoryError:
+        raise ResourceError(f"out of memory denoising a volume of shape {np.shape(volume)}; resample it to "
+                            "fewer voxels, or free memory") from None
+
+
+def _denoise_volume(volume, params, progress, spacing, affine, overrides):
     params = resolve_params(params, **overrides)
     if params.normal_filter != "adaptive":
         raise ParameterError("`normal_filter` is for meshes: a volume's fine pass smooths the mask itself")

@@ -1,16 +1,19 @@
 """Mesh files in and out (any format trimesh reads/writes), validated and written atomically."""
 
+import glob
+import logging
 import os
 import re
-import tempfile
 
 import numpy as np
 import trimesh
 
 from skelfilter.errors import InputError
-from skelfilter.runtime.memory import read_field
+from skelfilter.io.output_files import atomic_write, check_sidecars
 
 MESH_FORMATS = ("ply", "obj", "stl", "off", "glb")
+
+log = logging.getLogger(__name__)
 
 
 def _extension(path):
@@ -36,14 +39,37 @@ def load_mesh(path):
         raise InputError(f"{path}: no such file")
     if os.path.getsize(path) == 0:
         raise InputError(f"{path}: the file is empty")
+    options, wedge_uv = _ply_options(path) if ext == "ply" else ({}, False)
     try:
-        mesh = trimesh.load(path, file_type=ext, force="mesh", process=False)
+        mesh = trimesh.load(path, file_type=ext, force="mesh", process=False, **options)
     except Exception as exc:  # trimesh raises many kinds on corrupt files
-        raise InputError(f"{path}: malformed {ext.upper()} file ({exc})") from None
+        raise InputError(f"{path}: malformed {ext.upper()} file ({str(exc) or type(exc).__name__})") from None
     problem = _malformed(path, ext, mesh)
     if problem:
         raise InputError(f"{path}: malformed {ext.upper()} file ({problem})")
+    if wedge_uv:  # the texture coordinates were read on the vertices, wrongly: the geometry alone
+        log.warning("%s: its per-wedge texture coordinates are not kept (the mesh is read without them)", path)
+        mesh = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
     return validate_mesh(mesh, path)
+
+
+def _ply_options(path):
+    """How trimesh should read a PLY file: without its texture when the image it names is missing
+    (one warning line), with the vertices as the file indexes them when its faces carry per-wedge
+    texture coordinates (MeshLab's ``texcoord``: trimesh would split every vertex per face). Returns
+    the options and whether the faces carry them."""
+    with open(path, "rb") as f:
+        header = f.read(1 << 16).split(b"end_header")[0].decode("latin-1")
+    options = {}
+    texture = re.search(r"^comment\s+texturefile\s+(.+?)\s*$", header, re.M | re.I)
+    if texture and not os.path.isfile(os.path.join(os.path.dirname(os.path.abspath(path)), texture.group(1))):
+        log.warning("%s: its texture %s is missing; the mesh is read without it", path, texture.group(1))
+        options["skip_materials"] = True
+    faces = header.split("element face", 1)[1].split("element", 1)[0] if "element face" in header else ""
+    wedge_uv = re.search(r"^property\s+list\s+\w+\s+\w+\s+texcoord\s*$", faces, re.M) is not None
+    if wedge_uv:
+        options["fix_texture"] = False
+    return options, wedge_uv
 
 
 def _malformed(path, ext, mesh):
@@ -65,7 +91,7 @@ def _malformed(path, ext, mesh):
         declared = dict(re.findall(rb"^element\s+(\w+)\s+(\d+)", head.split(b"end_header")[0], re.M))
         want_v, want_f = int(declared.get(b"vertex", -1)), int(declared.get(b"face", -1))
         # Polygons come back as several triangles, so only fewer faces betray a short file.
-        if want_v >= 0 and want_f >= 0 and (vertices != want_v or faces < want_f):
+        if want_v >= 0 and want_f >= 0 and (vertices < want_v or faces < want_f):
             return f"the header declares {want_v} vertices and {want_f} faces; {vertices} and {faces} could be read"
     if faces == 0:
         return "no triangles could be read from it"
@@ -73,92 +99,50 @@ def _malformed(path, ext, mesh):
 
 
 def validate_mesh(mesh, name="mesh"):
-    """Check a mesh has triangles and finite vertices; returns it."""
+    """Check a mesh has triangles, finite vertices and faces that index them; returns it, as a
+    ``trimesh.Trimesh`` when given plain arrays (a ``(vertices, faces)`` pair).
+
+    Raises
+    ------
+    InputError
+    """
+    if isinstance(mesh, (tuple, list)) and len(mesh) == 2:
+        mesh = _from_arrays(*mesh, name)
     if not isinstance(mesh, trimesh.Trimesh):
-        raise InputError(f"{name}: expected a trimesh.Trimesh, got {type(mesh).__name__}")
+        raise InputError(f"{name}: expected a trimesh.Trimesh or a (vertices, faces) pair, got "
+                         f"{type(mesh).__name__}")
     if len(mesh.faces) == 0 or len(mesh.vertices) == 0:
         raise InputError(f"{name}: the mesh is empty (no triangles)")
     if not np.isfinite(mesh.vertices).all():
         raise InputError(f"{name}: vertex coordinates contain NaN or infinity")
+    faces = np.asarray(mesh.faces)
+    if faces.min() < 0 or faces.max() >= len(mesh.vertices):
+        bad = faces.min() if faces.min() < 0 else faces.max()
+        raise InputError(f"{name}: a face refers to vertex {bad}, and the mesh has {len(mesh.vertices)} "
+                         f"(vertices are numbered from 0 to {len(mesh.vertices) - 1})")
     if np.ptp(mesh.vertices, axis=0).max() <= 0:
         raise InputError(f"{name}: all vertices coincide")
     return mesh
 
 
-def _same_file(a, b):
-    return os.path.exists(b) and os.path.realpath(a) == os.path.realpath(b)
-
-
-def check_output(path, protect=(), kinds=None):
-    """Refuse an output path before anything is computed.
-
-    ``protect`` maps what ``path`` must not be to its name in the message (``{input_path: "input"}``;
-    a list means inputs); ``kinds`` lists the allowed extensions (default: any).
-
-    Raises
-    ------
-    InputError
-        A wrong extension, a missing folder, a folder as the path, or one of the protected files.
-    """
-    path = str(path)
-    names = protect if isinstance(protect, dict) else {p: "input" for p in protect}
-    for other, name in names.items():
-        if _same_file(str(other), path) or os.path.abspath(str(other)) == os.path.abspath(path):
-            raise InputError(f"{path}: refusing to overwrite the {name} file")
-    if kinds is not None:
-        ext = os.path.splitext(path)[1].lower().lstrip(".")
-        if ext not in kinds:
-            raise InputError(f"{path}: unsupported format {ext!r} (use {', '.join(kinds)})")
-    if os.path.isdir(path):
-        raise InputError(f"{path}: is a folder")
-    if not os.path.isdir(os.path.dirname(os.path.abspath(path))):
-        raise InputError(f"{path}: output folder does not exist")
-
-
-def _new_file_mode(path):
-    """The mode ``open`` would give ``path``: the old file's if it exists, else 0o666 less the umask
-    (a temporary file is made 0o600)."""
-    if os.path.exists(path):
-        return os.stat(path).st_mode & 0o7777
-    return 0o666 & ~_umask()
-
-
-def _umask():
-    """The process' umask, read without changing it where Linux shows it (os.umask sets it to read
-    it, for every thread at once)."""
-    value = read_field("/proc/self/status", "Umask")
-    if value is not None:
-        return int(value, 8)
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
-
-
-def file_suffix(path):
-    """The file name's suffix, two of them for a compressed file (``.nii.gz``): writers that choose
-    the format by the name see the output's."""
-    stem, last = os.path.splitext(path)
-    return os.path.splitext(stem)[1] + last if last.lower() == ".gz" else last
-
-
-def atomic_write(path, write, protect=()):
-    """Call ``write(tmp_path)`` then move the result onto ``path`` in one step.
-
-    ``protect``: as in `check_output`.
-    """
-    path = str(path)
-    check_output(path, protect)
-    directory = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(dir=directory, prefix=".skelfilter-", suffix=file_suffix(path))
-    os.close(fd)
+def _from_arrays(vertices, faces, name):
+    """A Trimesh of plain arrays: (n, 3) numbers and (m, 3) integers (whole numbers of any type;
+    trimesh would cut 0.7 down to 0)."""
     try:
-        write(tmp)
-        os.chmod(tmp, _new_file_mode(path))
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+        vertices = np.asarray(vertices, dtype=np.float64)
+        faces = np.asarray(faces)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{name}: the vertices and faces must be arrays of numbers ({exc})") from None
+    if vertices.ndim != 2 or vertices.shape[1] != 3 or faces.ndim != 2 or faces.shape[1] != 3:
+        raise InputError(f"{name}: vertices of shape (n, 3) and faces of shape (m, 3) expected, got "
+                         f"{vertices.shape} and {faces.shape}")
+    if faces.dtype == bool or not np.issubdtype(faces.dtype, np.number):
+        raise InputError(f"{name}: face indices must be integers, got {faces.dtype}")
+    if not np.issubdtype(faces.dtype, np.integer):
+        whole = np.isfinite(faces) & (faces == np.round(faces))
+        if not whole.all():
+            raise InputError(f"{name}: face indices must be whole numbers, got {faces[~whole][0].item()!r}")
+    return trimesh.Trimesh(vertices, faces.astype(np.int64), process=False)
 
 
 # Formats that store coordinates as float32, and the error (in parts of the mesh's size) they may add.
@@ -166,15 +150,20 @@ FLOAT32_FORMATS = ("stl", "glb")
 FLOAT32_ERROR = 1e-4
 
 
-def check_precision(mesh, path):
-    """Refuse to write ``mesh`` in a float32 format when float32 coordinates would change its
-    shape (a small mesh far from the origin: single precision keeps 7 digits).
+def check_mesh_output(mesh, path):
+    """Refuse, before anything is computed, to write ``mesh`` (or its denoised self) to ``path``:
+    in a float32 format when float32 coordinates would change its shape (a small mesh far from
+    the origin: single precision keeps 7 digits), or as a textured OBJ whose material library or
+    texture name is taken by a file that is not part of an earlier ``path``.
 
     Raises
     ------
-    InputError
+    InputError, OutputError
     """
     ext = os.path.splitext(str(path))[1].lower().lstrip(".")
+    if ext == "obj" and getattr(mesh.visual, "material", None) is not None:
+        stem = os.path.splitext(os.path.abspath(str(path)))[0]
+        check_sidecars(str(path), [f"{stem}.mtl", *glob.glob(glob.escape(stem) + "_0.*")])
     if ext not in FLOAT32_FORMATS or len(mesh.vertices) == 0:
         return
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
@@ -195,7 +184,7 @@ def save_mesh(mesh, path, protect=()):
     UVs and the texture).
     """
     ext = _extension(path)
-    check_precision(mesh, path)
+    check_mesh_output(mesh, path)
     if ext == "ply":
         kind = getattr(mesh.visual, "kind", None)
         vertex_colours = {} if kind != "vertex" else _colour_fields(mesh.visual.vertex_colors)
@@ -209,8 +198,33 @@ def save_mesh(mesh, path, protect=()):
             faces[name] = values
         _save_ply(path, _vertex_records(mesh.vertices, vertex_colours, "<f8"), faces, protect)
         return
-    options = {"digits": _decimal_places(mesh.vertices)} if ext in ("obj", "off") else {}
+    if ext == "obj":
+        _save_obj(mesh, path, protect)
+        return
+    options = {"digits": _decimal_places(mesh.vertices)} if ext == "off" else {}
     atomic_write(path, lambda tmp: mesh.export(tmp, file_type=ext, **options), protect)
+
+
+def _save_obj(mesh, path, protect):
+    """OBJ with its material library and texture named after it (``out.mtl``, ``out_0.png``), written
+    with it in one step: two outputs in one folder never share them, and no file of that name the
+    run did not make is replaced (`output_files.check_sidecars`)."""
+    from trimesh.exchange.obj import export_obj
+
+    stem = os.path.splitext(os.path.basename(str(path)))[0]
+    if getattr(mesh.visual, "material", None) is not None:
+        visual = mesh.visual.copy()
+        visual.material.name = re.sub(r"\s", "_", stem) + "_0"
+        mesh = trimesh.Trimesh(mesh.vertices, mesh.faces, visual=visual, process=False)
+    text, files = export_obj(mesh, return_texture=True, write_texture=False, mtl_name=f"{stem}.mtl",
+                             digits=_decimal_places(mesh.vertices))
+    directory = os.path.dirname(os.path.abspath(str(path)))
+
+    def write(tmp):
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(text)
+
+    atomic_write(path, write, protect, sidecars={os.path.join(directory, name): data for name, data in files.items()})
 
 
 def _decimal_places(points):

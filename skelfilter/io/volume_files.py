@@ -16,9 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from skelfilter.errors import InputError
-from skelfilter.io.mesh_files import atomic_write
+from skelfilter.errors import InputError, ResourceError
+from skelfilter.io.output_files import atomic_write
 from skelfilter.runtime.extras import need
+from skelfilter.runtime.memory import available_bytes
 
 # Suffix -> format; ``.nii.gz`` is matched before ``.gz`` would be.
 VOLUME_SUFFIXES = {".nii.gz": "nifti", ".nii": "nifti", ".nrrd": "nrrd", ".tif": "tiff", ".tiff": "tiff",
@@ -82,10 +83,12 @@ def load_volume(path, spacing=None):
         raise InputError(f"{path}: no such file")
     try:
         volume = _READERS[fmt](path)
-    except InputError:
+    except (InputError, ResourceError):
         raise
+    except MemoryError:
+        raise ResourceError(f"{path}: the volume does not fit in the memory available") from None
     except Exception as exc:  # each library raises its own kinds on corrupt files
-        raise InputError(f"{path}: malformed {fmt.upper()} file ({exc})") from None
+        raise InputError(f"{path}: malformed {fmt.upper()} file ({str(exc) or type(exc).__name__})") from None
     if volume.data.ndim == 4 and volume.data.shape[3] == 1:
         volume.data = volume.data[..., 0]
     if volume.data.ndim != 3:
@@ -98,10 +101,31 @@ def load_volume(path, spacing=None):
     return volume
 
 
+def _check_claimed_size(path, shape, itemsize, stored=None):
+    """Refuse a header whose volume the file cannot hold (``stored``: the bytes it has for the data,
+    when it is not compressed) or the memory cannot, before the data is read."""
+    shape = tuple(int(n) for n in shape)
+    if any(n < 0 for n in shape):
+        raise InputError(f"{path}: malformed header (negative size {shape})")
+    need_bytes = int(np.prod(shape, dtype=object)) * int(itemsize)
+    size = "x".join(map(str, shape))
+    if stored is not None and need_bytes > stored:
+        raise InputError(f"{path}: malformed file (the header claims a {size} volume of {itemsize}-byte values, "
+                         f"{need_bytes} bytes of data; the file holds {max(stored, 0)})")
+    have = available_bytes()
+    if need_bytes > have:
+        raise ResourceError(f"{path}: the header claims a {size} volume of {itemsize}-byte values, "
+                            f"{need_bytes / 2**30:.1f} GiB, but only {have / 2**30:.1f} GiB is available")
+
+
 def _read_nifti(path):
     nibabel = need("nibabel", "NIfTI volumes")
 
     image = nibabel.load(path)
+    compressed = path.lower().endswith(".gz")
+    offset = int(image.dataobj.offset) if hasattr(image.dataobj, "offset") else 0
+    _check_claimed_size(path, image.shape, image.get_data_dtype().itemsize,
+                        None if compressed else os.path.getsize(path) - offset)
     return Volume(np.asanyarray(image.dataobj), np.asarray(image.affine, dtype=float), "nifti", image.header)
 
 
@@ -113,6 +137,10 @@ _RAS_SPACES = ("right-anterior-superior", "ras")
 def _read_nrrd(path):
     nrrd = need("nrrd", "NRRD volumes")
 
+    header = nrrd.read_header(path)
+    _check_data_file(path, header)
+    if "sizes" in header:
+        _check_claimed_size(path, header["sizes"], _nrrd_itemsize(nrrd, header))
     data, header = nrrd.read(path)
     space = str(header.get("space", "")).lower()
     if space and space not in _LPS_SPACES + _RAS_SPACES:
@@ -131,6 +159,28 @@ def _read_nrrd(path):
     if space in _LPS_SPACES:  # world coordinates are RAS, as NIfTI's, whatever the file's convention
         affine = np.diag([-1.0, -1.0, 1.0, 1.0]) @ affine
     return Volume(data, affine, "nrrd", header)
+
+
+def _check_data_file(path, header):
+    """A detached NRRD header's data file is read only beside the header (its folder or below), so
+    that an input file cannot pull in any file the user can read."""
+    name = header.get("datafile", header.get("data file"))
+    if name is None:
+        return
+    folder = os.path.realpath(os.path.dirname(os.path.abspath(path)))
+    target = os.path.realpath(os.path.join(folder, str(name)))
+    if os.path.commonpath([folder, target]) != folder:
+        raise InputError(f"{path}: its data file {str(name)!r} lies outside the header's folder; detached data "
+                         "is read only from the header's folder or below")
+    if not os.path.isfile(target):
+        raise InputError(f"{path}: its data file {str(name)!r} is missing")
+
+
+def _nrrd_itemsize(nrrd, header):
+    try:
+        return np.dtype(nrrd.reader._determine_datatype(header)).itemsize
+    except Exception:  # an unknown type: the reader says so next
+        return 1
 
 
 def _read_tiff(path):
@@ -156,7 +206,8 @@ _READERS = {"nifti": _read_nifti, "nrrd": _read_nrrd, "tiff": _read_tiff, "npy":
 
 
 def select_mask(data, label=None, iso=None):
-    """The binary shape to denoise: ``data == label``, ``data >= iso``, or the nonzero voxels.
+    """The binary shape to denoise: ``data == label``, ``data >= iso``, or the nonzero voxels; NaN
+    voxels are never part of it.
 
     Raises
     ------
@@ -171,10 +222,14 @@ def select_mask(data, label=None, iso=None):
         mask, empty = data >= iso, f"no voxel is at or above the iso level {iso:g}"
     else:
         values = np.unique(data)
-        if values.size > 2:
-            raise InputError(f"the volume holds {values.size} values, not a mask: choose the shape with "
+        finite = values[~np.isnan(values)] if np.issubdtype(values.dtype, np.floating) else values
+        if finite.size > 2:
+            also = " and NaN voxels" if finite.size < values.size else ""
+            raise InputError(f"the volume holds {finite.size} values{also}, not a mask: choose the shape with "
                              "`label` N (a label map) or `iso` LEVEL (a grey-level image)")
         mask, empty = data != 0, "no voxel is set"
+        if finite.size < values.size:
+            mask &= ~np.isnan(data)
     if not mask.any():
         raise InputError(f"the volume is empty: {empty}")
     return mask
@@ -218,7 +273,8 @@ def _write_nrrd(tmp, like, data):
     header = dict(like.header) if like.format == "nrrd" else {
         "space": "right-anterior-superior", "space directions": like.affine[:3, :3].T,
         "space origin": like.affine[:3, 3]}
-    for key in ("type", "dimension", "sizes"):  # taken from the data
+    for key in ("type", "dimension", "sizes", "datafile", "data file", "byteskip", "byte skip", "lineskip",
+                "line skip"):  # taken from the data, written in the output file itself
         header.pop(key, None)
     for key in _NRRD_PER_AXIS:  # a 4-D file with one volume was read as 3-D
         if key in header and len(header[key]) > data.ndim:

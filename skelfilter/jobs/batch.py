@@ -16,21 +16,26 @@ import csv
 import glob
 import json
 import logging
+import multiprocessing
 import os
 import resource
+import shutil
 import sys
+import tempfile
 import time
 from dataclasses import fields
 
 from skelfilter.errors import InputError, SkelfilterError
-from skelfilter.io import mesh_files
+from skelfilter.io import output_files
 from skelfilter.jobs import denoise_file
 from skelfilter.parameter_fields import build
 from skelfilter.params import DenoiseParams, VolumeParams
 from skelfilter.runtime.extras import need
 from skelfilter.runtime.memory import read_field, return_freed_memory
 from skelfilter.runtime.progress import Progress
+from skelfilter.runtime.signals import deferred, temporary_folder
 
+SUMMARY_FILES = ("summary.csv", "summary.json")
 SUMMARY_FIELDS = ("input", "output", "status", "error", "seconds", "peak_memory_mib", "voxels_changed",
                   "bad_input")
 
@@ -88,17 +93,24 @@ def output_paths(inputs, out_dir, to=None):
     for path in inputs:
         name = os.path.basename(path)
         if to:
-            name = name[: -len(mesh_files.file_suffix(name))] + "." + to.lstrip(".")
+            name = name[: -len(output_files.file_suffix(name))] + "." + to.lstrip(".")
         outputs.append(os.path.abspath(os.path.join(out_dir, name)))
     seen = {}
+    files = {_file_id(path): path for path in inputs}
     for path, out in zip(inputs, outputs):
         if out in seen:
             raise InputError(f"{path} and {seen[out]} would both write {out}; put them in separate batches")
         seen[out] = path
         denoise_file.check_paths(path, out)
-        if out in inputs:
-            raise InputError(f"{out}: refusing to overwrite an input file")
+        if out in inputs or (os.path.exists(out) and _file_id(out) in files):
+            raise InputError(f"{out}: refusing to overwrite an input file ({files.get(_file_id(out), out)})")
     return outputs
+
+
+def _file_id(path):
+    """Device and inode: one file under every name (a hard link, a bind mount, a symlinked folder)."""
+    stat = os.stat(path)
+    return stat.st_dev, stat.st_ino
 
 
 def _task(input_path, output_path, params, volume_params, numba_threads):
@@ -147,9 +159,11 @@ def _peak_memory_mib():
     return round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)
 
 
-def local_cluster(workers=None):
+def local_cluster(workers=None, directory=None):
     """A ``LocalCluster`` of ``workers`` single-threaded processes (default: one per core), each
-    with numba on ``cores // workers`` threads; a task whose worker dies is retried once.
+    with numba on ``cores // workers`` threads; a task whose worker dies is retried once. The
+    workers keep their scratch files in ``directory`` (default: Dask's, in the temporary folder) and
+    serve no dashboard.
 
     Returns
     -------
@@ -168,11 +182,13 @@ def local_cluster(workers=None):
     # alone, which is retried once (allowed failures 1) and then reported. The scheduler reads
     # both when it starts; the workers' log lines (a worker restarted, a task given up) stay out
     # of the terminal, the summary says what they mean.
-    with dask.config.set({"distributed.scheduler.allowed-failures": 1,
-                          "distributed.scheduler.worker-saturation": 1.0,
-                          "logging.distributed": "critical"}):
+    settings = {"distributed.scheduler.allowed-failures": 1, "distributed.scheduler.worker-saturation": 1.0,
+                "logging.distributed": "critical"}
+    if directory is not None:  # the scheduler's scratch files too
+        settings["temporary-directory"] = directory
+    with dask.config.set(settings):
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                               env=env)
+                               env=env, local_directory=directory, silence_logs=logging.CRITICAL)
     return Client(cluster), threads
 
 
@@ -231,6 +247,8 @@ def denoise_many(paths, out_dir, client=None, workers=None, force=False, to=None
     os.makedirs(out_dir, exist_ok=True)
     try:
         outputs = output_paths(inputs, out_dir, to)
+        for name in SUMMARY_FILES:  # checked before anything runs, as every output
+            output_files.check_output(os.path.join(out_dir, name), inputs)
     except BaseException:
         if created:
             os.rmdir(out_dir)
@@ -272,34 +290,79 @@ def _previous_bad_inputs(out_dir):
 
 
 def _run(todo, client, workers, params, volume_params, report, skipped):
+    with contextlib.ExitStack() as stack:
+        threads = None
+        if client is None:
+            client, threads = _own_cluster(stack, workers)
+        return _collect(client, todo, threads, params, volume_params, report, skipped)
+
+
+def _own_cluster(stack, workers):
+    """A `local_cluster` that ``stack`` closes, its scratch files in a folder of this run that goes
+    with it (and that a later run removes, should this process be killed). Started and closed with
+    the signals held: its processes inherit them held, so that a Ctrl-C to the terminal's process
+    group reaches this process alone, which closes the cluster."""
+    _remove_abandoned_scratch()
+    scratch = stack.enter_context(temporary_folder(f"{SCRATCH_PREFIX}{os.getpid()}-"))
+    earlier = set(multiprocessing.active_children())
+    with deferred():
+        client, threads = local_cluster(workers, scratch)
+    stack.callback(_close, client, earlier)
+    return client, threads
+
+
+def _close(client, earlier):
+    """Close the cluster; then kill any of its worker processes still running (busy in a task past
+    Dask's timeouts), so that none outlives the run or writes after it."""
+    with deferred():
+        cluster = client.cluster
+        client.close()
+        cluster.close()
+        for process in set(multiprocessing.active_children()) - earlier:
+            process.kill()
+            process.join(10)
+
+
+SCRATCH_PREFIX = "skelfilter-dask-"
+
+
+def _remove_abandoned_scratch():
+    """Scratch folders of runs whose process is gone (killed outright: nothing could clean up)."""
+    for folder in glob.glob(os.path.join(tempfile.gettempdir(), SCRATCH_PREFIX + "*-*")):
+        pid = os.path.basename(folder)[len(SCRATCH_PREFIX):].split("-")[0]
+        if pid.isdigit() and not _alive(int(pid)):
+            shutil.rmtree(folder, ignore_errors=True)
+
+
+def _alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # someone else's process
+        return True
+    return True
+
+
+def _collect(client, todo, threads, params, volume_params, report, skipped):
     as_completed = need("distributed", "a batch on Dask").as_completed
 
-    own = client is None
-    threads = None
-    if own:
-        client, threads = local_cluster(workers)
     rows, counts = {}, {"done": skipped, "failed": 0, "total": skipped + len(todo)}
-    try:
-        futures = {client.submit(_task, path, out, params, volume_params, threads, pure=False,
-                                 key=f"skelfilter-{i}-{os.path.basename(path)}"): (path, out)
-                   for i, (path, out) in enumerate(todo)}
-        for future in as_completed(futures):
-            path, out = futures[future]
-            try:
-                row = future.result()
-            except Exception as exc:  # the worker died twice (KilledWorker) or the task could not run
-                row = {"input": path, "output": out, "status": "failed", "seconds": "", "peak_memory_mib": "",
-                       "voxels_changed": "", "error": _worker_error(exc), "bad_input": ""}
-            rows[path] = row
-            counts["done"] += 1
-            counts["failed"] += row["status"] == "failed"
-            if report:
-                report(row, counts)
-    finally:
-        if own:
-            cluster = client.cluster
-            client.close()
-            cluster.close()
+    futures = {client.submit(_task, path, out, params, volume_params, threads, pure=False,
+                             key=f"skelfilter-{i}-{os.path.basename(path)}"): (path, out)
+               for i, (path, out) in enumerate(todo)}
+    for future in as_completed(futures):
+        path, out = futures[future]
+        try:
+            row = future.result()
+        except Exception as exc:  # the worker died twice (KilledWorker) or the task could not run
+            row = {"input": path, "output": out, "status": "failed", "seconds": "", "peak_memory_mib": "",
+                   "voxels_changed": "", "error": _worker_error(exc), "bad_input": ""}
+        rows[path] = row
+        counts["done"] += 1
+        counts["failed"] += row["status"] == "failed"
+        if report:
+            report(row, counts)
     return rows
 
 
@@ -320,8 +383,8 @@ def _write_summary(out_dir, rows):
         with open(tmp, "w", encoding="utf-8") as f:
             json.dump(rows, f, indent=1)
 
-    mesh_files.atomic_write(os.path.join(out_dir, "summary.csv"), write_csv)
-    mesh_files.atomic_write(os.path.join(out_dir, "summary.json"), write_json)
+    for name, write in zip(SUMMARY_FILES, (write_csv, write_json)):
+        output_files.atomic_write(os.path.join(out_dir, name), write)
 
 
 def progress_bar(stream=sys.stderr, width=30):

@@ -15,7 +15,7 @@ import numpy as np
 
 from skelfilter.core import pipeline
 from skelfilter.errors import InputError
-from skelfilter.io import mesh_files, volume_files
+from skelfilter.io import mesh_files, output_files, volume_files
 from skelfilter.mesh import marching_cubes, point_cloud
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.params import VolumeParams
@@ -73,11 +73,11 @@ def check_paths(input_path, output_path, save_skeleton=None, points=False):
         kind_out = "points"
     if kind_out not in OUTPUTS[kind_in]:
         raise InputError(f"{output_path}: a {kind_in} input gives a {' or a '.join(OUTPUTS[kind_in])} output")
-    mesh_files.check_output(output_path, [input_path])
+    output_files.check_output(output_path, [input_path])
     if save_skeleton:
         if kind_in != "mesh":
             raise InputError("`save_skeleton` needs a mesh input")
-        mesh_files.check_output(save_skeleton, {input_path: "input", output_path: "output"}, ("ply",))
+        output_files.check_output(save_skeleton, {input_path: "input", output_path: "output"}, ("ply",))
     return kind_in, kind_out
 
 
@@ -116,7 +116,7 @@ def denoise_file(input_path, output_path, params, volume_params=None, save_skele
     if kind_in == "points":
         return _denoise_point_file(input_path, output_path, kind_out, params, progress)
     mesh = mesh_files.load_mesh(input_path)
-    mesh_files.check_precision(mesh, output_path)
+    mesh_files.check_mesh_output(mesh, output_path)
     out, result, grid = mesh_pipeline.denoise_mesh_detailed(mesh, params, progress)
     if save_skeleton and not result.stages:
         raise InputError(f"`save_skeleton`: no skeleton was computed ({progress.notes[-1]}); "

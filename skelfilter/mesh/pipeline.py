@@ -13,6 +13,7 @@ from skelfilter.mesh import fine_pass, marching_cubes, output_choice, vertex_pro
 from skelfilter.mesh.frame import Frame
 from skelfilter.parameter_fields import build
 from skelfilter.params import NoiseParams, voxel_fields_given
+from skelfilter.runtime import worker_threads
 from skelfilter.runtime.memory import check_grid_fits
 from skelfilter.runtime.progress import Progress
 
@@ -21,7 +22,7 @@ def _voxelize(mesh, resolution, padding, progress, padding_by, required=True):
     """Occupancy of a mesh on its padded grid, memory checked before allocating (``padding_by``: the
     parameters that set the padding, for the advice). An empty occupancy is refused if ``required``."""
     grid = voxelize.grid_for_bounds(mesh.bounds, resolution, padding)
-    check_grid_fits(grid.shape, padding=padding, padding_from=padding_by)
+    check_grid_fits(grid.shape, padding=padding, padding_from=padding_by, faces=len(mesh.faces))
     with progress.step("voxelize"):
         occupancy = voxelize.voxelize_on_grid(mesh, grid)
     if required:
@@ -39,7 +40,7 @@ def denoise_mesh(mesh, params=None, progress=None, **overrides):
 
     Parameters
     ----------
-    mesh : trimesh.Trimesh
+    mesh : trimesh.Trimesh or (vertices, faces)
     params : DenoiseParams, optional; keyword arguments override its fields.
 
     Returns
@@ -66,9 +67,15 @@ def denoise_mesh_detailed(mesh, params=None, progress=None, **overrides):
     """
     params = resolve_params(params, **overrides)
     progress = progress or Progress(enabled=False)
-    frame = Frame.of(validate_mesh(mesh))
+    mesh = validate_mesh(mesh)
+    worker_threads.start()
+    frame = Frame.of(mesh)
     unit = frame.to_unit(mesh)
-    closed, kept_vertices, result, grid = _denoise_unit(unit, params, progress)
+    try:
+        closed, kept_vertices, result, grid = _denoise_unit(unit, params, progress)
+    except MemoryError:
+        raise ResourceError(f"out of memory denoising a mesh of {len(mesh.faces)} faces; lower `resolution`, "
+                            "simplify the mesh, or free memory") from None
     lost = _attributes(mesh) if closed is not None and params.output_mesh == "auto" else ""
     if lost:
         warnings.warn(f"the new closed mesh has no {lost}; output_mesh input keeps them "
@@ -190,7 +197,7 @@ def _fitting_resolution(mesh, params):
         trial = params.with_(resolution=resolution)
         shape = voxelize.grid_for_bounds(mesh.bounds, resolution, trial.padding_voxels).shape
         try:
-            check_grid_fits(shape)
+            check_grid_fits(shape, faces=len(mesh.faces))
             return resolution
         except ResourceError:
             if resolution <= 16:
@@ -214,7 +221,9 @@ def noisy_mesh(mesh, params=None, progress=None, **overrides):
     """
     params = build(NoiseParams, params, **overrides)
     progress = progress or Progress(enabled=False)
-    frame = Frame.of(validate_mesh(mesh))
+    mesh = validate_mesh(mesh)
+    worker_threads.start()
+    frame = Frame.of(mesh)
     clean, grid = _voxelize(frame.to_unit(mesh), params.resolution, params.padding_voxels, progress,
                             "`h` and `r` (the padding is h + r + 10)")
     with progress.step("noise"):

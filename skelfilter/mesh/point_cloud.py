@@ -27,6 +27,8 @@ from skelfilter.mesh.closest_points import MeshSurface
 
 # File suffixes read as point clouds; a PLY is one when it has no faces.
 POINT_FORMATS = ("ply", "pcd", "xyz", "xyzn", "pts")
+FLAT_RATIO = 1e-6  # relative spread across below which a cloud is a line or a plane
+MAX_EXTENT = 1e150  # squared distances stay finite
 MIN_POINTS = 1000
 # The median nearest-neighbour spacing (duplicates removed) must stay under the longest side over this.
 MAX_SPACING_RATIO = 60
@@ -75,7 +77,8 @@ def load_points(path):
         raise InputError(f"{path}: {len(points)} points is too sparse to make a solid of "
                          f"(at least {MIN_POINTS} needed)")
     if not np.isfinite(points).all():
-        raise InputError(f"{path}: point coordinates contain NaN or infinity")
+        raise InputError(f"{path}: point coordinates contain NaN or infinity (or numbers too large for the "
+                         "reader: over 3.4e38 where it reads single precision)")
     return cloud
 
 
@@ -102,6 +105,22 @@ def _plain(text):
     return re.sub(r"\x1b\[[0-9;]*m", "", text)
 
 
+def _check_spread(points, name):
+    """Refuse a cloud no solid can be made of before open3d tries: points on one line or in one plane
+    (their spread across is under `FLAT_RATIO` of their extent), or coordinates whose squares, which
+    the neighbour search takes, overflow."""
+    extent = float(np.ptp(points, axis=0).max()) if len(points) else 0.0
+    if not extent <= MAX_EXTENT:
+        raise InputError(f"{name} is {extent:.3g} across: too large to measure distances in (at most "
+                         f"{MAX_EXTENT:.0e}); scale it down")
+    sample = points[:: max(1, len(points) // 100_000)]
+    spread = np.linalg.svd((sample - sample.mean(axis=0)) / max(extent, np.finfo(float).tiny), compute_uv=False)
+    if len(spread) < 3 or spread[1] <= FLAT_RATIO * spread[0]:
+        raise InputError(f"{name} lies on a line: no solid can be made of it")
+    if spread[2] <= FLAT_RATIO * spread[0]:
+        raise InputError(f"{name} lies in a plane (a flat scan): no solid can be made of it")
+
+
 def points_to_mesh(cloud, name="the point cloud"):
     """The closed surface of a cloud, by screened Poisson reconstruction.
 
@@ -122,6 +141,7 @@ def points_to_mesh(cloud, name="the point cloud"):
     if "normals" in cloud.point:
         legacy.normals = o3d.utility.Vector3dVector(cloud.point.normals.numpy().astype(np.float64))
     legacy = legacy.remove_duplicated_points()
+    _check_spread(np.asarray(legacy.points), name)
     size = float(np.ptp(np.asarray(legacy.points), axis=0).max())
     spacing = float(np.median(legacy.compute_nearest_neighbor_distance())) if len(legacy.points) > 1 else 0.0
     if len(legacy.points) < MIN_POINTS or not 0 < spacing * MAX_SPACING_RATIO <= size:
@@ -165,7 +185,7 @@ def save_points(cloud, path, protect=()):
     """Write a cloud (its format from the suffix), atomically."""
     import open3d as o3d
 
-    from skelfilter.io.mesh_files import atomic_write
+    from skelfilter.io.output_files import atomic_write
 
     def write(tmp):
         if not o3d.t.io.write_point_cloud(tmp, cloud):

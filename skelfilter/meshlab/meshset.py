@@ -22,6 +22,7 @@ import inspect
 import numpy as np
 import trimesh
 
+from skelfilter.errors import InputError
 from skelfilter.io import mesh_files
 from skelfilter.meshlab.descriptions import ADD_SKELETON_NOISE, FILTERS, SKELETON_SALIENCY_DENOISE
 from skelfilter.runtime.extras import need
@@ -74,6 +75,8 @@ def _docstring(description):
 def _meshset_function(description):
     def apply(ms, /, **params):
         settings = description.make_params(**params)
+        if ms.mesh_number() == 0:
+            raise InputError("the MeshSet is empty: add a mesh first (ms.load_new_mesh or ms.add_mesh)")
         mesh = mesh_files.validate_mesh(to_trimesh(ms.current_mesh()), "the current mesh")
         result = description.apply(mesh, settings)
         ms.add_mesh(to_pymeshlab(result), mesh_name=description.layer, set_as_current=True)

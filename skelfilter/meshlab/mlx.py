@@ -154,6 +154,8 @@ def parse(data, source):
     except expat.ExpatError as exc:
         raise InputError(f"{source}:{exc.lineno}: malformed filter script XML "
                          f"({expat.ErrorString(exc.code)}, column {exc.offset + 1})") from None
+    except (LookupError, ValueError) as exc:  # an encoding Python does not know, or cannot decode
+        raise InputError(f"{source}: malformed filter script XML (its encoding: {exc})") from None
     if not reader.filters:
         raise InputError(f"{source}: filter script contains no filters")
     return reader.filters

@@ -28,7 +28,6 @@ import os
 import re
 import subprocess
 import sys
-import tempfile
 
 import numpy as np
 
@@ -36,6 +35,7 @@ from skelfilter.errors import InputError, SkelfilterError
 from skelfilter.meshlab import mlx
 from skelfilter.runtime.child import run_child
 from skelfilter.runtime.extras import need
+from skelfilter.runtime.signals import temporary_folder
 
 MLS_FILTERS = ("compute_mls_projection_apss", "compute_mls_projection_rimls")
 
@@ -321,7 +321,7 @@ def run_filters(layers, current, steps, timeout=300):
     SkelfilterError
         The child crashed (the signal is named), timed out, or a filter raised (the step is named).
     """
-    with tempfile.TemporaryDirectory(prefix="skelfilter-meshlab-") as work:
+    with temporary_folder("skelfilter-meshlab-") as work:
         with open(os.path.join(work, "steps.json"), "w", encoding="utf-8") as f:
             json.dump([{"name": name, "params": attrs} for name, attrs, _ in steps], f)
         _save_layers(os.path.join(work, "layers.npz"), layers, current)
@@ -335,7 +335,8 @@ def run_filters(layers, current, steps, timeout=300):
             with open(error_file, encoding="utf-8") as f:
                 error = json.load(f)
             name, _, where = steps[error["step"]]
-            raise SkelfilterError(f"{where}: pymeshlab's {name} failed: {error['error']}")
+            details = "; ".join(line.strip() for line in str(error["error"]).splitlines() if line.strip())
+            raise SkelfilterError(f"{where}: pymeshlab's {name} failed: {details}")
         if proc.returncode != 0:
             tail = proc.stderr.decode("utf-8", "replace").strip().splitlines()[-3:]
             raise SkelfilterError(f"{running()}: the child process failed (exit status "

@@ -20,7 +20,7 @@ import numpy as np
 import trimesh
 
 from skelfilter.errors import InputError, ParameterError, SkelfilterError
-from skelfilter.io import mesh_files
+from skelfilter.io import mesh_files, output_files
 from skelfilter.meshlab import descriptions, mlx, pymeshlab_filters
 from skelfilter.runtime.progress import Progress
 
@@ -227,4 +227,4 @@ def export_script(path, description, params, protect=()):
         with open(tmp, "w", encoding="utf-8") as f:
             f.write(text)
 
-    mesh_files.atomic_write(path, write, protect)
+    output_files.atomic_write(path, write, protect)

@@ -19,6 +19,9 @@ _MMAP_THRESHOLD = 128 * 1024
 # and the skeleton's flat arrays. Measured 33.9 at 384 (fandisk, the
 # benchmark), less on larger grids; rounded up.
 BYTES_PER_VOXEL = 36
+# Peak bytes per input face of the mesh stages (voxelization, the fine pass on the input's vertices):
+# measured 1 248 on a noisy 327 680-face sphere, rounded up.
+BYTES_PER_FACE = 1300
 
 _CGROUP_ROOT = "/sys/fs/cgroup"
 # cgroup v1 writes "no limit" as a page-rounded 2**63 - 1.
@@ -101,18 +104,23 @@ def _cgroup_left():
     return max(left, 0)
 
 
-def check_grid_fits(shape, available=None, padding=0, padding_from="`padding`"):
-    """Raise ResourceError when a grid of ``shape`` would not fit in memory.
+def check_grid_fits(shape, available=None, padding=0, padding_from="`padding`", faces=0):
+    """Raise ResourceError when a grid of ``shape`` (and a mesh of ``faces`` triangles) would not fit
+    in memory.
 
     ``padding`` (voxels on each side) and ``padding_from`` (the parameters that set it, backticked as
     in every message: the CLI names them by their flags) make the advice point at the padding when it
-    makes most of the grid.
+    makes most of the grid; the advice points at the mesh when its faces make most of the need.
     """
     n = int(shape[0]) * int(shape[1]) * int(shape[2])
-    need = n * BYTES_PER_VOXEL
+    need = n * BYTES_PER_VOXEL + int(faces) * BYTES_PER_FACE
     have = available_bytes() if available is None else available
     if need > have:
         inner = int(np.prod([max(int(s) - 2 * padding, 1) for s in shape]))
+        if faces * BYTES_PER_FACE > n * BYTES_PER_VOXEL:
+            raise ResourceError(f"the mesh's {faces} faces need about {need / 2**30:.1f} GiB with the grid but only "
+                                f"{have / 2**30:.1f} GiB is available; simplify the mesh (MeshLab's Quadric "
+                                "Edge Collapse Decimation) or free memory")
         advice = (f"the padding of {padding} voxels on each side makes most of it; lower {padding_from}"
                   if inner < n / 2 else "lower `resolution`")
         raise ResourceError(

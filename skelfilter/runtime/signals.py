@@ -1,48 +1,100 @@
-"""Interrupts between pipeline steps, never inside numba's parallel kernels.
+"""Interrupts: between pipeline steps, never inside numba's parallel kernels; in the CLI, at any
+moment, one line and exit 128 + the signal's number.
 
 A SIGINT or SIGTERM arriving while numba's OpenMP kernels run (the A* of the geodesic importance
 above all) crashed the process with a segmentation fault. So the worker threads are started with
-both signals blocked (threads inherit the mask of the thread that starts them), and each pipeline
+the signals blocked (threads inherit the mask of the thread that starts them), and each pipeline
 step runs with them blocked in the main thread too (`deferred`): a signal waits until the step ends,
-then Python raises and the run ends as any interrupted one (one line, exit 130 or 143, no output).
+then Python raises and the run ends as any interrupted one (one line, no output).
+
+The CLI (`install_handlers`) turns SIGINT, SIGTERM and SIGHUP into `Interrupted`, raised where
+Python is, so that every ``finally`` and ``with`` cleans up (children, temporary files). A signal
+the command's parent chose to ignore (``nohup``, a background job) stays ignored. The first
+signal blocks the others, so a second Ctrl-C cannot break the cleanup of the first.
 """
 
+import shutil
 import signal
+import tempfile
 from contextlib import contextmanager
 
-import numpy as np
-from numba import njit, prange
-
-SIGNALS = {signal.SIGINT, signal.SIGTERM}
+SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+WORDS = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated", signal.SIGHUP: "hung up"}
 
 
-@njit(cache=True, parallel=True)
-def _touch(values):
-    total = 0.0
-    for i in prange(values.size):
-        total += values[i]
-    return total
+class Interrupted(KeyboardInterrupt):
+    """A SIGINT, SIGTERM or SIGHUP, raised in the main thread by the CLI's handlers."""
+
+    def __init__(self, signum):
+        super().__init__(signum)
+        self.signum = signum
+
+    @property
+    def word(self):
+        return WORDS.get(self.signum, "interrupted")
+
+    @property
+    def exit_status(self):
+        return 128 + self.signum
+
+
+def _raise(signum, frame):
+    signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)
+    raise Interrupted(signum)
+
+
+def block():
+    """Hold SIGINT, SIGTERM and SIGHUP in this thread; returns the previous mask."""
+    return signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)
+
+
+def unblock():
+    """Let SIGINT, SIGTERM and SIGHUP in (one pending is delivered now)."""
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, SIGNALS)
+
+
+def install_handlers():
+    """The CLI's handlers (process-wide: a command's choice, never a library call's): each signal
+    that is not ignored raises `Interrupted`."""
+    for signum in SIGNALS:
+        if signal.getsignal(signum) is not signal.SIG_IGN:
+            signal.signal(signum, _raise)
 
 
 def start_workers_shielded():
-    """Start numba's worker threads with SIGINT and SIGTERM blocked in them (see the module)."""
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)
+    """Start numba's worker threads with the signals blocked in them (see the module)."""
+    from skelfilter.runtime import worker_threads
+
+    old = block()
     try:
-        _touch(np.zeros(64))
+        worker_threads.start()
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 @contextmanager
 def deferred():
-    """SIGINT and SIGTERM wait until the block ends, then act (Python raises right after).
+    """SIGINT, SIGTERM and SIGHUP wait until the block ends, then act (Python raises right after).
 
     An interrupt that arrived while numba's OpenMP kernels ran in this thread crashed the process
     (``geodesic_importance``'s A*: a segmentation fault in the main thread); a pipeline step is
     therefore never interrupted inside, only between steps.
     """
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)
+    old = block()
     try:
         yield
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+@contextmanager
+def temporary_folder(prefix, directory=None):
+    """A temporary folder, made and removed with the signals held, so that an interrupt at any
+    moment leaves none behind."""
+    with deferred():
+        folder = tempfile.mkdtemp(prefix=prefix, dir=directory)
+    try:
+        yield folder
+    finally:
+        with deferred():
+            shutil.rmtree(folder, ignore_errors=True)

@@ -65,6 +65,11 @@ class Config:
         return DenoiseParams(**{"resolution": self.resolution, **(method.params or {})})
 
 
+def slug(name):
+    """A case's folder name, a method's file name: lower case, letters, digits, ``-`` and ``_``."""
+    return "".join(c if c.isalnum() or c in "-_" else "-" for c in name.lower()).strip("-") or "x"
+
+
 def default_config_path():
     """The shipped default configuration (the thesis' protocol)."""
     return str(resources.files("skelfilter.evaluation.comparison") / "default.toml")
@@ -235,9 +240,12 @@ def load_config(path=None, **overrides):
     if not cases or not methods:
         _fail(path, "top level", "needs at least one [[case]] and one [[method]]")
     for kind, items in (("case", cases), ("method", methods)):
-        names = [x.name for x in items]
-        if len(set(names)) != len(names):
-            _fail(path, "top level", f"{kind} names must be unique: {names}")
+        folders = {"input-noisy": "the noisy input's mesh"} if kind == "method" else {}
+        for x in items:
+            other = folders.setdefault(slug(x.name), repr(x.name))
+            if other != repr(x.name):
+                _fail(path, "top level", f"{kind} names {other} and {x.name!r} give one file name "
+                      f"{slug(x.name)!r}; rename one")
     sweep = data.get("sweep", {})
     _check_keys(path, "[sweep]", sweep, ("case", "thresholds"))
     sweep_case = sweep.get("case")

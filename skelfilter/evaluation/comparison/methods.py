@@ -6,7 +6,6 @@ fault, a timeout or NaN vertices become an ``Outcome`` with a reason and the com
 """
 
 import os
-import tempfile
 import time
 from dataclasses import dataclass
 
@@ -18,6 +17,7 @@ from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.meshlab import scripts
 from skelfilter.runtime.child import run_child
 from skelfilter.runtime.extras import need
+from skelfilter.runtime.signals import temporary_folder
 
 
 @dataclass
@@ -108,7 +108,7 @@ def pygel3d_smooth(mesh, settings=None, timeout=900):
 
 def _in_child(function, mesh, settings, timeout, what):
     """Run ``function`` of this module on ``mesh`` in a child process (files in a temporary folder)."""
-    with tempfile.TemporaryDirectory(prefix="skelfilter-child-") as work:
+    with temporary_folder("skelfilter-child-") as work:
         np.savez(os.path.join(work, "mesh.npz"), vertices=np.asarray(mesh.vertices, dtype=np.float64),
                  faces=np.asarray(mesh.faces, dtype=np.int32),
                  **{f"s_{k}": np.asarray(v) for k, v in (settings or {}).items()})

@@ -24,13 +24,15 @@ import trimesh
 from skelfilter.core import pipeline
 from skelfilter.evaluation import metrics
 from skelfilter.evaluation.comparison import render, report
-from skelfilter.evaluation.comparison.config import as_dict
+from skelfilter.evaluation.comparison.config import as_dict, slug
 from skelfilter.evaluation.comparison.methods import run_method
+from skelfilter.evaluation.comparison.output_folder import check_out_folder, move_in, remove_made
 from skelfilter.io import mesh_files
 from skelfilter.io.samples import sample_path
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.mesh import voxelize
 from skelfilter.params import DenoiseParams
+from skelfilter.runtime.signals import deferred
 
 COLOUR_RANGE = (0.0, 3.0)  # voxels, the colour maps' scale
 SUBPROCESS_KINDS = ("meshlab", "meshlib")  # run in child processes: these may share the CPU
@@ -48,10 +50,6 @@ class Reporter:
         if self.enabled:
             self.stream.write(f"[{time.perf_counter() - self.start:6.1f} s] {message}\n")
             self.stream.flush()
-
-
-def slug(name):
-    return "".join(c if c.isalnum() or c in "-_" else "-" for c in name.lower()).strip("-") or "x"
 
 
 def _clean_model(model):
@@ -214,24 +212,24 @@ def run_compare(config, out_dir, say=None):
 
     Writes ``results.json``, ``metrics.csv``, every result mesh (PLY), the pictures, ``report.html``
     and ``report.md``. They are made in a hidden folder inside ``out_dir`` and moved out of it at
-    the end (replacing files of the same names), so a failed or interrupted run leaves nothing
-    behind (and ``out_dir`` itself goes if the run made it).
+    the end, replacing only what an earlier run made (`output_folder.check_out_folder`, before
+    anything runs), so a failed or interrupted run leaves nothing behind (and ``out_dir`` itself
+    goes if the run made it).
     """
     say = say or Reporter(enabled=False)
+    check_out_folder(config, out_dir)
     created = not os.path.isdir(out_dir)
     os.makedirs(out_dir, exist_ok=True)
-    work = tempfile.mkdtemp(dir=out_dir, prefix=".skelfilter-work-")
+    work = None
     try:
+        with deferred():
+            work = tempfile.mkdtemp(dir=out_dir, prefix=".skelfilter-work-")
         results = _run_compare(config, work, say)
-        for name in os.listdir(work):
-            target = os.path.join(out_dir, name)
-            if os.path.isdir(target) and not os.path.islink(target):
-                shutil.rmtree(target)
-            os.replace(os.path.join(work, name), target)
-    finally:
-        shutil.rmtree(work, ignore_errors=True)
-        if created and not os.listdir(out_dir):
-            os.rmdir(out_dir)
+        move_in(work, out_dir)
+    except BaseException:
+        remove_made(out_dir, created, work)
+        raise
+    shutil.rmtree(work, ignore_errors=True)
     say(f"wrote {os.path.join(out_dir, 'report.html')} and report.md ({results['wall_seconds']:.0f} s)")
     return results
 
