@@ -106,8 +106,8 @@ def kill_batch_worker_on(name):
 
     original = batch.local_cluster
 
-    def local_cluster(workers=None):
-        client, threads = original(workers)
+    def local_cluster(*args, **kwargs):
+        client, threads = original(*args, **kwargs)
         client.register_plugin(KillOnInput(name))
         return client, threads
 

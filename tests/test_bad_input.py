@@ -7,6 +7,7 @@ import resource
 import subprocess
 import sys
 
+import nibabel
 import numpy as np
 import pytest
 import trimesh
@@ -111,6 +112,28 @@ CASES = [
     (["compare", "{root}/jobs.toml", "--out", "{out}.d"], "jobs must be a positive integer"),
     (["compare", "{root}/kind.toml", "--out", "{out}.d"], "kind must be one of"),
     (["compare", "{root}/failing.toml", "--out", "{out}.d", "--quiet"], "garbage.obj: malformed OBJ file"),
+    # round 2: faces that index no vertex, files that pull in others, headers that claim too much
+    (["denoise", "{root}/outofrange.ply", "{out}"], "a face refers to vertex 99, and the mesh has 8"),
+    (["denoise", "{root}/negative.ply", "{out}"], "a face refers to vertex -1"),
+    (["denoise", "{root}/outofrange-binary.ply", "{out}"], "a face refers to vertex 1000"),
+    (["noise", "{root}/outofrange.ply", "{out}"], "a face refers to vertex 99"),
+    (["denoise", "{root}/elsewhere.nrrd", "{out}.nrrd"], "lies outside the header's folder"),
+    (["denoise", "{root}/passwd.nrrd", "{out}.nrrd"], "lies outside the header's folder"),
+    (["denoise", "{root}/linked.nrrd", "{out}.nrrd"], "lies outside the header's folder"),
+    (["denoise", "{root}/huge.nii", "{out}.nii"], "the header claims a 2000x2000x2000 volume"),
+    (["denoise", "{root}/nanlabels.npy", "{out}.npy"], "holds 3 values and NaN voxels, not a mask"),
+    (["denoise", "{root}/flat.xyz", "{out}"], "lies in a plane (a flat scan)"),
+    (["denoise", "{root}/line.xyz", "{out}"], "lies on a line"),
+    (["run-script", "{root}/encoding.mlx", "{in}", "{out}"], "(its encoding: unknown encoding: klingon)"),
+    (["compare", "{root}/cases.toml", "--out", "{out}.d"], "case names 'Cube' and 'cube!' give one file name"),
+    (["compare", "{root}/methods.toml", "--out", "{out}.d"], "method names 'Clean' and 'clean?' give one file"),
+    (["compare", "{root}/noisyname.toml", "--out", "{out}.d"], "method names the noisy input's mesh and"),
+    (["compare", "--out", ""], "--out: the output folder's name is empty"),
+    (["batch", "{in}", "--out", "{out}.d", "--scheduler", "notanaddress"], "--scheduler notanaddress: cannot connect"),
+    (["batch", "{in}", "--out", "{root}/summaryfolder"], "summary.csv: is a folder"),
+    (["denoise", "{root}/new\nline.ply", "{out}"], "new\\nline.ply: no such file"),
+    (["denoise", "{in}", "{dir}/" + "x" * 300 + ".ply"], "file name too long writing"),
+    (["export-script", "denoise", "{dir}/" + "x" * 300 + ".mlx"], "file name too long writing"),
 ]
 
 
@@ -151,6 +174,17 @@ FILES = {
     "jobs.toml": _config('name = "c"\nmodel = "cube"', run="[run]\njobs = 0"),
     "kind.toml": _config('name = "c"\nmodel = "cube"', method='name = "s"\nkind = "magic"'),
     "failing.toml": _config('name = "c"\nnoisy = "garbage.obj"\nclean = "cube.ply"'),
+    "outofrange.ply": BOX_PLY.replace("\n3 1 3 0\n", "\n3 1 3 99\n", 1),
+    "negative.ply": BOX_PLY.replace("\n3 1 3 0\n", "\n3 1 3 -1\n", 1),
+    "elsewhere.nrrd": "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\ndata file: ../secret.raw\n\n",
+    "passwd.nrrd": "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\nbyte skip: -1\n"
+                   "data file: /etc/passwd\n\n",
+    "linked.nrrd": "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\ndata file: link.raw\n\n",
+    "encoding.mlx": '<?xml version="1.0" encoding="klingon"?>\n' + SCRIPT.split("\n", 1)[1],
+    "cases.toml": _config('name = "Cube"\nmodel = "cube"\n[[case]]\nname = "cube!"\nmodel = "cube"'),
+    "methods.toml": _config('name = "c"\nmodel = "cube"', method='name = "Clean"\nkind = "skelfilter"\n'
+                            '[[method]]\nname = "clean?"\nkind = "skelfilter"'),
+    "noisyname.toml": _config('name = "c"\nmodel = "cube"', method='name = "Input Noisy"\nkind = "skelfilter"'),
 }
 
 
@@ -172,6 +206,20 @@ def files(tmp_path_factory):
     (root / "adir.ply").mkdir()
     np.save(root / "labels.npy", np.arange(27).reshape(3, 3, 3) % 3)
     (root / "broken.nii.gz").write_bytes(b"\x1f\x8b not really gzip")
+    faces = trimesh.creation.box().faces.copy()
+    faces[0, 2] = 1000
+    (root / "outofrange-binary.ply").write_bytes(trimesh.exchange.ply.export_ply(
+        trimesh.Trimesh(trimesh.creation.box().vertices, faces, process=False, validate=False)))
+    (root.parent / "secret.raw").write_bytes(b"secret!!")
+    (root / "link.raw").symlink_to(root.parent / "secret.raw")
+    huge = nibabel.Nifti1Image(np.zeros((2, 2, 2), np.uint8), np.eye(4))
+    huge.header.set_data_shape((2000, 2000, 2000))
+    (root / "huge.nii").write_bytes(huge.header.binaryblock + b"\0" * 4 + b"\0" * 64)
+    np.save(root / "nanlabels.npy", np.where(np.arange(27) < 3, np.nan, np.arange(27) % 3).reshape(3, 3, 3))
+    sphere = trimesh.creation.icosphere(4).vertices
+    np.savetxt(root / "flat.xyz", sphere * (1, 1, 0))
+    np.savetxt(root / "line.xyz", np.outer(np.linspace(0, 1, 3000), (1, 2, 3)))
+    (root / "summaryfolder" / "summary.csv").mkdir(parents=True)
     (root / "sparse.pcd").write_text("VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 3\n"
                                      "HEIGHT 1\nPOINTS 3\nDATA ascii\n0 0 0\n1 0 0\n0 1 0\n")
     return root
@@ -238,7 +286,8 @@ API_CASES = [
     (lambda m: mesh_pipeline.denoise_mesh(m, output_mesh="cube"), ParameterError, "output_mesh must be one of"),
     (lambda m: mesh_pipeline.denoise_mesh(m, preset="fast"), ParameterError, "preset must be one of"),
     (lambda m: mesh_pipeline.denoise_mesh(m, resolution=4096), ResourceError, "GiB is available"),
-    (lambda m: mesh_pipeline.denoise_mesh(str(m)), InputError, "expected a trimesh.Trimesh, got str"),
+    (lambda m: mesh_pipeline.denoise_mesh(str(m)), InputError,
+     r"expected a trimesh.Trimesh or a \(vertices, faces\) pair, got str"),
     (lambda m: mesh_pipeline.denoise_mesh(trimesh.Trimesh()), InputError, "the mesh is empty"),
     (lambda m: mesh_pipeline.denoise_mesh(trimesh.Trimesh(m.vertices * np.nan, m.faces, process=False)), InputError,
      "NaN"),
@@ -253,7 +302,57 @@ API_CASES = [
      "threshold must be a number in"),
     (lambda m: _meshset_call("apply_skeleton_noise", l=0), ParameterError, "l must be an integer in"),
     (lambda m: _meshset_call("apply_skeleton_saliency_denoise", treshold=9.0), ParameterError, "treshold"),
+    (lambda m: _empty_meshset_call(), InputError, r"the MeshSet is empty: add a mesh first"),
+    (lambda m: mesh_pipeline.denoise_mesh((m.vertices, m.faces + 0.5)), InputError,
+     "face indices must be whole numbers, got 1.5"),
+    (lambda m: mesh_pipeline.denoise_mesh((m.vertices, m.faces[:, :2])), InputError, r"faces of shape \(m, 3\)"),
+    (lambda m: mesh_pipeline.denoise_mesh((m.vertices, m.faces > 0)), InputError, "face indices must be integers"),
+    (lambda m: mesh_pipeline.denoise_mesh(m, resolution=np.bool_(True)), ParameterError, "must be an integer"),
+    (lambda m: _out_of_memory("skelfilter.mesh.pipeline._denoise_unit",
+                              lambda: mesh_pipeline.denoise_mesh(m, resolution=32)),
+     ResourceError, "out of memory denoising a mesh of 12 faces; lower `resolution`"),
+    (lambda m: _out_of_memory("skelfilter.core.pipeline._fine_pass_then_stages",
+                              lambda: pipeline.denoise_volume(np.ones((8, 8, 8), bool))),
+     ResourceError, r"out of memory denoising a volume of shape \(8, 8, 8\)"),
 ]
+
+
+def _empty_meshset_call():
+    import pymeshlab
+
+    from skelfilter.meshlab import meshset
+
+    meshset.apply_skeleton_saliency_denoise(pymeshlab.MeshSet())
+
+
+def _out_of_memory(name, call):
+    """``call`` with the function ``name`` failing as an allocation does when memory runs out."""
+    import importlib
+    from unittest import mock
+
+    module, function = name.rsplit(".", 1)
+
+    def exhausted(*args, **kwargs):
+        raise MemoryError()
+
+    with mock.patch.object(importlib.import_module(module), function, exhausted):
+        call()
+
+
+def test_numpy_numbers_and_whole_float_indices_are_taken():
+    cube = _cube()
+    out = mesh_pipeline.denoise_mesh((cube.vertices, cube.faces.astype(float)), resolution=np.int64(32))
+    assert isinstance(out, trimesh.Trimesh) and len(out.faces) > 0
+    assert type(DenoiseParams(resolution=np.int64(32), threshold=np.float32(3)).resolution) is int
+
+
+def test_a_mesh_too_large_for_the_memory_is_named_as_the_cause():
+    from skelfilter.runtime.memory import check_grid_fits
+
+    with pytest.raises(ResourceError, match="the mesh's 2000000 faces need about .* simplify the mesh"):
+        check_grid_fits((64, 64, 64), available=2**30, faces=2_000_000)
+    with pytest.raises(ResourceError, match="lower `resolution`"):
+        check_grid_fits((1024, 1024, 1024), available=2**30, faces=2_000)
 
 
 @pytest.mark.parametrize("call, error, message", API_CASES, ids=[f"api{i}" for i in range(len(API_CASES))])

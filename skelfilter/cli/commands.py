@@ -381,6 +381,9 @@ def _exit_status(exc):
         message, status = "interrupted", 130
     elif isinstance(exc, SkelfilterError):
         message, status = f"error: {_in_cli_terms(str(exc))}", 2
+    elif isinstance(exc, OSError):  # what the system refused, where no step said it better
+        where = f" ({exc.filename})" if exc.filename else ""
+        message, status = f"error: {(exc.strerror or str(exc) or type(exc).__name__).lower()}{where}", 2
     elif isinstance(exc, MemoryError):
         message, status = "error: out of memory (the input is too large for the memory available)", 2
     else:

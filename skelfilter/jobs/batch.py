@@ -187,7 +187,9 @@ def local_cluster(workers=None, directory=None):
     if directory is not None:  # the scheduler's scratch files too
         settings["temporary-directory"] = directory
     with dask.config.set(settings):
+        # No dashboard; the scheduler's own HTTP routes on a free local port (8787 may be taken).
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                               scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
                                env=env, local_directory=directory, silence_logs=logging.CRITICAL)
     return Client(cluster), threads
 
