@@ -24,6 +24,7 @@ import sys
 import tempfile
 import time
 from dataclasses import fields
+from multiprocessing import resource_tracker
 
 from skelfilter.errors import InputError, SkelfilterError
 from skelfilter.io import output_files
@@ -268,8 +269,13 @@ def denoise_many(paths, out_dir, client=None, workers=None, force=False, to=None
             rows[path] = {**before[path], "seconds": 0.0, "peak_memory_mib": "", "voxels_changed": ""}
         else:
             todo.append((path, out))
-    if todo:
-        rows.update(_run(todo, client, workers, denoise_params, volume_params, report, len(rows)))
+    try:
+        if todo:
+            rows.update(_run(todo, client, workers, denoise_params, volume_params, report, len(rows)))
+    except BaseException:  # interrupted: the finished outputs stay (complete: a rerun skips them)
+        if created and not os.listdir(out_dir):
+            os.rmdir(out_dir)
+        raise
     ordered = [rows[path] for path in inputs]
     _write_summary(out_dir, ordered)
     return ordered
@@ -307,6 +313,8 @@ def _own_cluster(stack, workers):
     _remove_abandoned_scratch()
     scratch = stack.enter_context(temporary_folder(f"{SCRATCH_PREFIX}{os.getpid()}-"))
     earlier = set(multiprocessing.active_children())
+    with deferred():  # multiprocessing's resource tracker unblocks the signals in the thread that starts it
+        resource_tracker.ensure_running()
     with deferred():
         client, threads = local_cluster(workers, scratch)
     stack.callback(_close, client, earlier)
