@@ -245,6 +245,46 @@ def test_bad_input_gives_one_line_and_exit_2(files, tmp_path, args, message):
     assert sorted(p.name for p in files.iterdir() if p.is_file()) == sorted(before)
 
 
+# The input files of the corpus, through the Python API and in a batch (where one bad file becomes
+# its row's error and never stops the others).
+BAD_FILES = {
+    "outofrange.ply": "a face refers to vertex 99", "negative.ply": "a face refers to vertex -1",
+    "outofrange-binary.ply": "a face refers to vertex 1000", "elsewhere.nrrd": "lies outside the header's folder",
+    "passwd.nrrd": "lies outside the header's folder", "huge.nii": "the header claims a 2000x2000x2000 volume",
+    "nanlabels.npy": "holds 3 values and NaN voxels", "flat.xyz": "lies in a plane",
+    "garbage.obj": "malformed OBJ file", "nan.obj": "NaN or infinity", "sparse.pcd": "is too sparse",
+}
+
+
+@pytest.mark.parametrize("name", sorted(BAD_FILES))
+def test_bad_files_through_the_python_api(files, tmp_path, name):
+    from skelfilter import denoise_file
+
+    before = digest(files / name)
+    out = tmp_path / ("out" + name[name.index("."):])
+    with pytest.raises(InputError, match=BAD_FILES[name].replace("(", r"\(")):
+        denoise_file(files / name, out if not name.endswith((".xyz", ".pcd")) else tmp_path / "out.ply",
+                     DenoiseParams())
+    assert digest(files / name) == before and os.listdir(tmp_path) == []
+
+
+def test_bad_files_in_a_batch_are_their_rows_errors(files, tmp_path):
+    import csv
+
+    out = tmp_path / "out"
+    r = subprocess.run([sys.executable, "-m", "skelfilter.cli", "batch", *(str(files / n) for n in BAD_FILES),
+                        "--out", str(out), "--workers", "1"], capture_output=True, text=True, timeout=600)
+    lines = [line for line in r.stderr.splitlines() if line.startswith("skelfilter:")]
+    assert r.returncode == 1 and lines == [f"skelfilter: 0 denoised, 0 skipped (output there), {len(BAD_FILES)} "
+                                           f"failed; see {out / 'summary.csv'}"], r.stderr
+    assert "Traceback" not in r.stderr
+    with open(out / "summary.csv", newline="") as f:
+        rows = {os.path.basename(row["input"]): row for row in csv.DictReader(f)}
+    for name, message in BAD_FILES.items():
+        assert rows[name]["status"] == "failed" and message in rows[name]["error"], rows[name]
+    assert sorted(os.listdir(out)) == ["summary.csv", "summary.json"]
+
+
 @pytest.mark.parametrize("extra, message", [
     (["--save-skeleton", "{out}"], "refusing to overwrite the output file"),
     (["--save-skeleton", "{in}"], "refusing to overwrite the input file"),

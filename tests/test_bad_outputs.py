@@ -7,6 +7,7 @@ that need them are skipped, with the reason, where they cannot be made."""
 import contextlib
 import hashlib
 import os
+import shutil
 import subprocess
 import sys
 
@@ -299,24 +300,12 @@ print([str(w.message) for w in seen])
     assert r.returncode == 0 and r.stdout.strip() == "[]", r.stdout + r.stderr
 
 
-TINY_COMPARISON = """[run]
-resolution = 32
-image_size = [96, 64]
-jobs = 1
-
-[[case]]
-name = "cube"
-model = "cube"
-
-[[method]]
-name = "skelfilter"
-kind = "skelfilter"
-"""
+TINY_COMPARISON = os.path.join(os.path.dirname(__file__), "data", "tiny-comparison.toml")
 
 
 def test_compare_replaces_only_what_an_earlier_run_made(tmp_path):
     config, out = tmp_path / "tiny.toml", tmp_path / "out"
-    config.write_text(TINY_COMPARISON)
+    shutil.copy(TINY_COMPARISON, config)
     (out / "cube").mkdir(parents=True)
     (out / "cube" / "mine.txt").write_text("mine")
     refused(["compare", config, "--out", out, "--quiet"], "cube: exists and was not made by an earlier skelfilter")

@@ -31,19 +31,7 @@ SCRIPT = ('<!DOCTYPE FilterScript>\n<FilterScript>\n <filter name="Taubin Smooth
           '  <Param name="resolution" type="RichInt" value="40"/>\n'
           '  <Param name="noise_height" type="RichFloat" value="4"/>\n </filter>\n'
           ' <filter name="Laplacian Smooth"/>\n</FilterScript>\n')
-COMPARISON = """[run]
-resolution = 32
-image_size = [96, 64]
-jobs = 1
-
-[[case]]
-name = "cube"
-model = "cube"
-
-[[method]]
-name = "skelfilter"
-kind = "skelfilter"
-
+LAPLACIAN = """
 [[method]]
 name = "Laplacian"
 kind = "meshlab"
@@ -67,7 +55,8 @@ def inputs(tmp_path_factory):
     (root / "s.mlx").write_text(SCRIPT)
     laplacian = os.path.join(os.path.dirname(mesh_files.__file__), "..", "evaluation", "comparison", "scripts",
                              "laplacian_surface_preserving.mlx")
-    (root / "tiny.toml").write_text(COMPARISON.format(laplacian=os.path.abspath(laplacian)))
+    tiny = os.path.join(os.path.dirname(__file__), "data", "tiny-comparison.toml")
+    (root / "tiny.toml").write_text(open(tiny).read() + LAPLACIAN.format(laplacian=os.path.abspath(laplacian)))
     return {"noisy": root / "noisy.ply", "script": root / "s.mlx", "config": root / "tiny.toml"}
 
 

@@ -13,6 +13,7 @@ import shutil
 from skelfilter.errors import InputError
 from skelfilter.evaluation.comparison.config import slug
 from skelfilter.evaluation.comparison.report import PICTURES
+from skelfilter.io.output_files import same_file
 from skelfilter.runtime.signals import deferred
 
 TABLES = ("results.json", "metrics.csv", "report.html", "report.md", "colour-scale.png", "sweep.png")
@@ -71,6 +72,7 @@ def check_out_folder(config, out_dir):
     if not os.path.isdir(out_dir):
         return
     top, cases = planned(config)
+    _check_inputs_apart(config, out_dir, top, cases)
     made_top, made_cases = earlier_run(out_dir)
     for name in top:
         if os.path.lexists(os.path.join(out_dir, name)) and name not in made_top:
@@ -84,6 +86,19 @@ def check_out_folder(config, out_dir):
         for name in files:
             if os.path.lexists(os.path.join(path, name)) and name not in made_cases[folder]:
                 _refuse(out_dir, os.path.join(folder, name))
+
+
+def _check_inputs_apart(config, out_dir, top, cases):
+    """No file the run reads (a case's meshes, a method's script) is one it writes."""
+    writes = [os.path.join(out_dir, name) for name in top]
+    writes += [os.path.join(out_dir, folder, name) for folder, names in cases.items() for name in names]
+    reads = [p for c in config.cases for p in (c.model, c.noisy, c.clean) if p] + \
+        [m.script for m in config.methods if m.script]
+    for path in filter(os.path.exists, writes):
+        for source in reads:
+            if same_file(source, path):
+                raise InputError(f"{path}: the comparison reads it ({source}) and would replace it; "
+                                 "choose another --out")
 
 
 def _refuse(out_dir, name):
