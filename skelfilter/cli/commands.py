@@ -390,10 +390,3 @@ def _exit_status(exc):
         raise exc
     print(f"skelfilter: {one_line(message)}", file=sys.stderr)
     return status
-
-
-def main(argv=None):
-    """The command line, as ``skelfilter`` runs it (:func:`skelfilter.cli.main`)."""
-    from skelfilter.cli import main as cli_main
-
-    return cli_main(argv)
