@@ -64,7 +64,7 @@ def test_points_moved_onto_the_surface_keep_their_attributes(bumpy, tmp_path):
 
 @pytest.mark.parametrize("points, message", [
     (np.random.default_rng(0).random((500, 3)), "500 points is too sparse"),
-    (np.c_[np.random.default_rng(0).random((5000, 2)), np.zeros(5000)], "no consistent inside"),
+    (np.c_[np.random.default_rng(0).random((5000, 2)), np.zeros(5000)], r"lies in a plane \(a flat scan\)"),
     (np.random.default_rng(0).random((1000, 3)) * 100, "too sparse: 1000 distinct points, .* apart on a shape"),
     (np.repeat(np.random.default_rng(0).random((800, 3)), 2, axis=0), "too sparse: 800 distinct points"),
 ])

@@ -365,11 +365,25 @@ def run(argv=None):
             return COMMANDS[args.command](args) or 0
         finally:
             signals.block()  # from here to the exit a signal waits, and goes with the process
+            signals.ignore_from_now()
     except BaseException as exc:  # noqa: BLE001 - each kind gets its line below; the rest is re-raised
         return _exit_status(exc)
 
 
+def _interrupt_behind(exc):
+    """The `signals.Interrupted` that ``exc`` was raised while handling, if any: a library that turns
+    every failure into its own error (VTK's lazy imports give ImportError) still carries it."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, signals.Interrupted):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None
+
+
 def _exit_status(exc):
+    exc = _interrupt_behind(exc) or exc
     if isinstance(exc, SystemExit):
         return exc.code
     if isinstance(exc, BrokenPipeError):  # `skelfilter filters --meshlab | head`: quiet, as Unix tools are

@@ -61,6 +61,13 @@ def install_handlers():
             signal.signal(signum, _raise)
 
 
+def ignore_from_now():
+    """The CLI's last word: the command has its status, and a signal from here to the exit (whichever
+    thread it reaches, while the interpreter shuts down and restores the default actions) is ignored."""
+    for signum in SIGNALS:
+        signal.signal(signum, signal.SIG_IGN)
+
+
 def start_workers_shielded():
     """Start numba's worker threads with the signals blocked in them (see the module)."""
     from skelfilter.runtime import worker_threads

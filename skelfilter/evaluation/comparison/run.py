@@ -112,8 +112,9 @@ def run_case(case, config, out_dir, say, pool):
     say(f"{case.name}: noisy mesh ready ({facts['faces']} faces)")
     camera = render.camera_for(clean, case.view, case.up)
     cameras = (camera, render.closeup_camera(clean, camera))
-    futures = {m.name: pool.submit(run_method, m, noisy, clean, config)
-               for m in config.methods if m.kind in SUBPROCESS_KINDS}
+    with deferred():  # the pool's threads start with the signals held: they reach the main thread only
+        futures = {m.name: pool.submit(run_method, m, noisy, clean, config)
+                   for m in config.methods if m.kind in SUBPROCESS_KINDS}
     entries = []
     for method in config.methods:  # in-process methods (numba) run here, meanwhile the children run
         outcome = futures[method.name].result() if method.name in futures else \
