@@ -213,3 +213,26 @@ def test_boundary_layer_matches_its_definition():
             expected[i, j, k] = x[max(i - 1, 0) : i + 2, max(j - 1, 0) : j + 2, max(k - 1, 0) : k + 2].any()
     assert m.dtype == bool
     assert np.array_equal(m, expected)
+
+
+def test_same_geodesics_and_search_effort_as_the_binary_heap_of_pairs():
+    """The packed-key heap gives the lengths and the settled counts of the (f, g)-pair heap it replaced
+    (commit cec1a4b) on a benchmark grid: noisy fandisk at 96, the default cap."""
+    import hashlib
+
+    from skelfilter.core import skeleton
+    from skelfilter.core.distance import distance_and_features
+    from skelfilter.io import mesh_files, samples
+    from skelfilter.mesh import pipeline as mesh_pipeline
+    from skelfilter.params import DenoiseParams
+
+    _, noise, _ = mesh_pipeline.noisy_mesh(mesh_files.load_mesh(samples.sample_path("fandisk")), resolution=96,
+                                           seed=3)
+    occupancy = noise.noisy
+    distance, features = distance_and_features(occupancy)
+    voxels = skeleton.ie_skeleton(distance)
+    a, b = skeleton.extended_feature_points(occupancy, features, voxels)
+    rho, expanded = geodesic_importance(boundary_layer(occupancy), a, b, DenoiseParams(resolution=96).cap_voxels)
+    assert len(voxels) == 62520
+    assert hashlib.sha256(rho.tobytes()).hexdigest()[:16] == "0f7647461ca1c999"
+    assert hashlib.sha256(expanded.tobytes()).hexdigest()[:16] == "467b9724c8acfcd7"
