@@ -417,11 +417,12 @@ def _outcome(entry):
 
 
 def _value(text):
-    """A --variant value as int, float, bool or str, the first that fits."""
+    """A --variant value as int, float, bool, None (``none``: e.g. ``resolution=none``, the mesh's
+    own choice) or str, the first that fits."""
     for kind in (int, float):
         with contextlib.suppress(ValueError):
             return kind(text)
-    return {"true": True, "false": False}.get(text.lower(), text)
+    return {"true": True, "false": False, "none": None}.get(text.lower(), text)
 
 
 def parse_variant(text, resolution):

@@ -22,7 +22,7 @@ import numpy as np
 
 from skelfilter.core.noise_estimate import surface_voxels
 from skelfilter.mesh import normal_filtering
-from skelfilter.mesh.closest_points import MeshSurface
+from skelfilter.mesh.closest_points import within
 
 # Voxels of the input's voxel surface that must lie within `NEAR` voxels of the input mesh for the
 # input to count as a solid.
@@ -54,8 +54,7 @@ def solid_share(occupancy, mesh, grid):
         return 0.0
     if len(rim) > SAMPLE:
         rim = rim[np.random.default_rng(0).choice(len(rim), SAMPLE, replace=False)]
-    distance = MeshSurface(mesh).distance(grid.to_world(rim))
-    return float(np.mean(distance / grid.pitch <= NEAR))
+    return float(np.mean(within(mesh, grid.to_world(rim), NEAR * grid.pitch)))
 
 
 def fine_noise(mesh, sample=SAMPLE, seed=0):

@@ -18,16 +18,25 @@ from skelfilter.runtime.memory import check_grid_fits
 from skelfilter.runtime.progress import Progress
 
 
-def _voxelize(mesh, resolution, padding, progress, padding_by, required=True):
+def _voxelize(mesh, resolution, padding, progress, padding_by, required=True, lattice=None):
     """Occupancy of a mesh on its padded grid, memory checked before allocating (``padding_by``: the
-    parameters that set the padding, for the advice). An empty occupancy is refused if ``required``."""
-    grid = voxelize.grid_for_bounds(mesh.bounds, resolution, padding)
+    parameters that set the padding, for the advice). An empty occupancy is refused if ``required``.
+    The grid is ``lattice``'s (`voxelize.voxel_lattice`) where given."""
+    grid = _grid(mesh, resolution, padding, lattice)
     check_grid_fits(grid.shape, padding=padding, padding_from=padding_by, faces=len(mesh.faces))
     with progress.step("voxelize"):
         occupancy = voxelize.voxelize_on_grid(mesh, grid)
     if required:
         _require_inside(occupancy, mesh, grid, resolution)
     return occupancy, grid
+
+
+def _grid(mesh, resolution, padding, lattice=None):
+    """The padded grid of ``mesh``: ``resolution`` voxels along its longest side, or the voxel
+    ``lattice`` it was made on (`voxelize.voxel_lattice`)."""
+    if lattice is not None:
+        return voxelize.grid_on_lattice(mesh.bounds, *lattice, padding)
+    return voxelize.grid_for_bounds(mesh.bounds, resolution, padding)
 
 
 def _require_inside(occupancy, mesh, grid, resolution):
@@ -89,14 +98,16 @@ def _denoise_unit(mesh, params, progress):
     vertices of ``mesh`` or None, the DenoiseResult, the Grid)."""
     given = voxel_fields_given(params)
     asked = [name for name in given if name != "resolution"]  # the resolution also tells solids from surfaces
+    lattice = None
     if params.resolution is None:
-        params = params.with_(resolution=_fitting_resolution(mesh, params))
-        progress.note(f"resolution {params.resolution} voxels (from the mesh's mean edge length)")
-    occupancy, grid = _voxelize(mesh, params.resolution, params.padding_voxels, progress, padding_from(params),
-                                required=params.output_mesh == "closed")
+        resolution, lattice = _fitting_resolution(mesh, params)
+        params = params.with_(resolution=resolution)
+        progress.note(f"resolution {params.resolution} voxels " + (
+            "(the voxel grid the mesh was made on)" if lattice else "(from the mesh's mean edge length)"))
     output = params.output_mesh
     skipped = None  # why the voxel stage does not run
     fine = None
+    occupancy = None
     if output == "auto":
         with progress.step("fine noise"):
             fine = output_choice.fine_noise(mesh)
@@ -104,6 +115,11 @@ def _denoise_unit(mesh, params, progress):
         if fine >= output_choice.FINE_NOISE and not asked:
             skipped = (f"fine noise {fine:.3f} (from {output_choice.FINE_NOISE:g}): the input mesh comes back, "
                        "smoothed by the fine pass")
+    if skipped is None:
+        occupancy, grid = _voxelize(mesh, params.resolution, params.padding_voxels, progress, padding_from(params),
+                                    required=output == "closed", lattice=lattice)
+    else:  # decided before voxelizing: the grid is only the frame of the (empty) result
+        grid = _grid(mesh, params.resolution, params.padding_voxels, lattice)
     if skipped is None and output != "closed":
         with progress.step("solid check"):
             solid = occupancy.any() and (
@@ -112,12 +128,14 @@ def _denoise_unit(mesh, params, progress):
             if not solid:
                 skipped = ("the input is an open surface: its own mesh comes back, smoothed by the fine pass "
                            "(the voxel stage needs a solid; the output mesh 'closed' makes one)")
+                if given:
+                    skipped += f" (resolution {params.resolution} was used only to tell a solid from a surface)"
     if skipped is not None:
         if asked:
             raise ParameterError(f"{', '.join(asked)} would have no effect: {skipped}; output_mesh closed runs "
                                  "the voxel stage on any input")
-        if given:
-            skipped += f" (resolution {params.resolution} was used only to tell a solid from a surface)"
+        if given and occupancy is None:
+            skipped += f" (resolution {params.resolution} is not used)"
         progress.note(skipped)
         result = DenoiseResult(mask=occupancy, field=None, timings=progress.timings)
         return None, _kept_vertices(mesh, None, params, grid, progress, fine), result, grid
@@ -191,18 +209,37 @@ def _kept_vertices(mesh, voxels, params, grid, progress, fine=None):
 
 
 def _fitting_resolution(mesh, params):
-    """`voxelize.auto_resolution`, lowered until the grid fits in memory (at least 16)."""
+    """The resolution for ``mesh`` and the voxel lattice to lay its grid on, or None.
+
+    A voxel mesh (`voxelize.voxel_lattice`: marching cubes of a volume) is denoised on the grid it
+    was made on, up to `voxelize.AUTO_RESOLUTION_RANGE`'s top: its noise is made of those voxels,
+    and on that grid the voxelization gives them back; a finer grid costs time and finds nothing
+    more. Otherwise `voxelize.auto_resolution`. Either is lowered until the grid fits in memory
+    (at least 16), and the lattice is then not used.
+    """
+    lattice = voxelize.voxel_lattice(mesh)
+    if lattice is not None:
+        resolution = int(round(float(np.ptp(np.asarray(mesh.bounds), axis=0).max()) / lattice[0]))
+        if 16 <= resolution <= voxelize.AUTO_RESOLUTION_RANGE[1] and _fits(mesh, params, resolution, lattice):
+            return resolution, lattice
     resolution = voxelize.auto_resolution(mesh)
-    while True:
-        trial = params.with_(resolution=resolution)
-        shape = voxelize.grid_for_bounds(mesh.bounds, resolution, trial.padding_voxels).shape
-        try:
-            check_grid_fits(shape, faces=len(mesh.faces))
-            return resolution
-        except ResourceError:
-            if resolution <= 16:
-                raise
-            resolution = max(16, int(resolution * 0.9))
+    while resolution > 16 and not _fits(mesh, params, resolution):
+        resolution = max(16, int(resolution * 0.9))
+    _fits(mesh, params, resolution, refuse=True)
+    return resolution, None
+
+
+def _fits(mesh, params, resolution, lattice=None, refuse=False):
+    """Whether ``mesh``'s grid at ``resolution`` (or on ``lattice``) fits in memory; if not and
+    ``refuse``, the ResourceError says why."""
+    shape = _grid(mesh, resolution, params.with_(resolution=resolution).padding_voxels, lattice).shape
+    try:
+        check_grid_fits(shape, faces=len(mesh.faces))
+    except ResourceError:
+        if refuse:
+            raise
+        return False
+    return True
 
 
 def noisy_mesh(mesh, params=None, progress=None, **overrides):

@@ -107,6 +107,68 @@ def grid_for_bounds(bounds, resolution, padding):
     return Grid(origin, pitch, tuple(cells.tolist()))
 
 
+def grid_on_lattice(bounds, pitch, anchor, padding):
+    """Grid whose voxel centres lie on the lattice ``anchor + k * pitch`` (k integer) and cover
+    ``bounds``, with ``padding`` voxels more on every side.
+
+    This is a voxel mesh's own grid (`voxel_lattice`): voxelized on it, a marching-cubes mesh gives
+    back the voxels it was made of.
+    """
+    b = np.asarray(bounds, dtype=np.float64)
+    anchor = np.asarray(anchor, dtype=np.float64)
+    first = np.floor((b[0] - anchor) / pitch) - int(padding)
+    last = np.ceil((b[1] - anchor) / pitch) + int(padding)
+    return Grid(anchor + first * pitch, pitch, tuple((last - first + 1).astype(np.int64).tolist()))
+
+
+# A vertex coordinate lies on a lattice plane when within this share of the pitch of one (files keep
+# 6 to 9 significant digits); a voxel mesh has at least `LATTICE_SHARE` of its vertices on lattice
+# edges (two coordinates on planes) and at least `EDGE_SHARE` with the third between two planes.
+LATTICE_TOLERANCE = 1e-3
+LATTICE_SHARE = 0.99
+EDGE_SHARE = 0.5
+# Faces, and vertices, the lattice is measured on at most (a random sample, fixed seed).
+LATTICE_SAMPLE = 50_000
+
+
+def voxel_lattice(mesh):
+    """The voxel lattice a marching-cubes mesh was made on, or None: ``(pitch, anchor)``.
+
+    Marching cubes puts every vertex on an edge between two neighbouring voxel centres: two of its
+    coordinates are those of lattice planes ``anchor + k * pitch``. Between the two ends of a mesh
+    edge such a coordinate changes by 0 or one pitch, so the pitch is among the most frequent
+    coordinate changes along the edges; each candidate (largest first) is tried: its planes on each
+    axis are the residue shared by most vertices, and the lattice holds when `LATTICE_SHARE` of the
+    vertices have two coordinates or more on planes and `EDGE_SHARE` exactly two. Meshes whose
+    vertices lie on no lattice (scans, CAD models, smoothed or decimated voxel meshes) give None.
+    """
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    if len(vertices) < 100 or len(faces) == 0:
+        return None
+    extent = float(np.ptp(vertices, axis=0).max())
+    if not extent > 0:
+        return None
+    rng = np.random.default_rng(0)
+    if len(faces) > LATTICE_SAMPLE:
+        faces = faces[rng.choice(len(faces), LATTICE_SAMPLE, replace=False)]
+    step = np.abs(vertices[faces] - vertices[np.roll(faces, 1, axis=1)]).reshape(-1)
+    quantum = extent * 1e-7
+    changes, counts = np.unique(np.round(step[step > 1e3 * quantum] / quantum), return_counts=True)
+    sample = vertices[rng.choice(len(vertices), min(len(vertices), LATTICE_SAMPLE), replace=False)]
+    for pitch in np.sort(changes[np.argsort(counts)[-4:]] * quantum)[::-1]:
+        anchor = np.empty(3)
+        for axis in range(3):
+            residue = np.round(np.mod(sample[:, axis] / pitch, 1.0) / LATTICE_TOLERANCE).astype(np.int64)
+            residue %= int(round(1 / LATTICE_TOLERANCE))
+            anchor[axis] = np.bincount(residue).argmax() * LATTICE_TOLERANCE * pitch
+        offset = (sample - anchor) / pitch
+        planes = (np.abs(offset - np.round(offset)) <= LATTICE_TOLERANCE).sum(axis=1)
+        if np.mean(planes >= 2) >= LATTICE_SHARE and np.mean(planes == 2) >= EDGE_SHARE:
+            return float(pitch), anchor
+    return None
+
+
 # The automatic resolution: voxels per mean edge length along the longest side, and its range.
 VOXELS_PER_EDGE = 2.0
 AUTO_RESOLUTION_RANGE = (96, 256)
