@@ -227,3 +227,20 @@ def test_meshset_keeps_the_layer_colours():
     out = meshset.to_trimesh(ms.current_mesh())
     assert np.array_equal(out.faces, noisy.faces)
     assert np.array_equal(out.visual.vertex_colors, noisy.visual.vertex_colors)
+
+
+def test_within_a_distance_of_a_mesh_against_every_face():
+    from trimesh.triangles import closest_point
+
+    from skelfilter.mesh.closest_points import within
+
+    rng = np.random.default_rng(3)
+    soup = trimesh.Trimesh(rng.random((60, 3)), rng.integers(0, 60, (40, 3)), process=False)
+    soup.update_faces(soup.nondegenerate_faces())
+    for mesh in (trimesh.creation.icosphere(2), trimesh.creation.box(), soup):
+        points = mesh.bounds[0] - 0.2 + rng.random((3000, 3)) * (np.ptp(mesh.bounds, axis=0) + 0.4)
+        triangles = mesh.triangles
+        nearest = np.array([np.linalg.norm(closest_point(triangles, np.repeat(p[None], len(triangles), 0)) - p,
+                                           axis=1).min() for p in points])
+        for radius in (0.01, 0.1, 0.5):
+            assert np.array_equal(within(mesh, points, radius), nearest <= radius)

@@ -348,3 +348,59 @@ def test_rocker_arm_keeps_its_through_hole():
     assert euler_number(volume, connectivity=3) == 0
     assert euler_number(volume, connectivity=1) == 0
     assert volume.sum() * grid.pitch**3 == pytest.approx(rocker.volume, rel=0.01)
+
+
+# ------------------------------------------------------------------------------- a voxel mesh's own lattice
+
+
+def _voxel_mesh(name="fandisk", resolution=64, seed=1):
+    from skelfilter.mesh import pipeline as mesh_pipeline
+
+    return mesh_pipeline.noisy_mesh(load(f"{name}.obj"), resolution=resolution, seed=seed)
+
+
+@pytest.mark.parametrize("name", ["fandisk", "spot"])
+def test_a_voxel_mesh_gives_back_its_voxels_on_its_own_lattice(name, tmp_path):
+    from skelfilter.io import mesh_files
+    from skelfilter.mesh.voxelize import grid_on_lattice, voxel_lattice
+
+    noisy, masks, grid = _voxel_mesh(name)
+    mesh_files.save_mesh(noisy, tmp_path / "noisy.obj")  # through a text file: digits are lost
+    noisy = mesh_files.load_mesh(tmp_path / "noisy.obj")
+    pitch, anchor = voxel_lattice(noisy)
+    assert pitch == pytest.approx(grid.pitch, rel=1e-5)
+    offset = (anchor - grid.origin) / grid.pitch
+    assert np.allclose(offset, np.round(offset), atol=1e-3)
+    lattice = grid_on_lattice(noisy.bounds, pitch, anchor, padding=3)
+    occupancy = voxelize_on_grid(noisy, lattice)
+    shift = np.round((lattice.origin - grid.origin) / grid.pitch).astype(int)
+    back = np.zeros_like(masks.noisy)
+    back[tuple((np.argwhere(occupancy) + shift).T)] = True
+    assert np.array_equal(back, masks.noisy)
+    assert has_border_margin(occupancy, 3)
+
+
+def test_meshes_off_any_lattice_have_none():
+    from skelfilter.mesh.voxelize import voxel_lattice
+
+    for name in ("fandisk.obj", "spot.obj", "stanford-bunny.obj"):
+        assert voxel_lattice(load(name)) is None
+    noisy = _voxel_mesh()[0]
+    rotated = noisy.copy().apply_transform(trimesh.transformations.rotation_matrix(0.3, [1, 2, 3]))
+    assert voxel_lattice(rotated) is None
+    assert voxel_lattice(trimesh.smoothing.filter_taubin(noisy.copy(), iterations=3)) is None
+    # A regular tessellation has every vertex on planes: no coordinate between two of them.
+    assert voxel_lattice(trimesh.creation.box().subdivide().subdivide().subdivide()) is None
+
+
+def test_the_automatic_grid_of_a_voxel_mesh_is_its_own():
+    from skelfilter.mesh import pipeline as mesh_pipeline
+    from skelfilter.runtime.progress import Progress
+
+    noisy, masks, grid = _voxel_mesh(resolution=100)
+    progress = Progress(enabled=False)
+    _, result, used = mesh_pipeline.denoise_mesh_detailed(noisy, progress=progress)
+    assert any("the voxel grid the mesh was made on" in n for n in progress.notes)
+    assert used.pitch == pytest.approx(grid.pitch, rel=1e-5)
+    offset = (used.origin - grid.origin) / grid.pitch
+    assert np.allclose(offset, np.round(offset), atol=1e-3)
