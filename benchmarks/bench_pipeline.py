@@ -3,6 +3,7 @@ commands a user runs first: a clean mesh, an everyday scan, a volume, the import
 
     python benchmarks/bench_pipeline.py [--sizes 128 192 256 384] [--with-512] [--json out.json]
                                         [--volume-size 256] [--everyday-mesh PATH] [--no-commands]
+                                        [--repeat 3]
 
 Each size runs in its own process, which only reads the noisy mesh, denoises it and
 writes the result (numba kernels load from the on-disk cache, so compilation is not
@@ -18,11 +19,12 @@ The exponent of each step is the slope of log(time) against log(grid voxels) ove
 sizes run.
 
 The commands (each a fresh ``skelfilter denoise IN OUT`` process with no flags, wall time, best
-of three): the bundled Stanford bunny, clean (69 451 faces), against reading and writing it in a
-fresh process (the floor: the interpreter, trimesh and the file); an everyday scan, the bunny with
-Gaussian noise of 0.2 mean edge lengths along its normals as the literature's Bunny0.2 (or the mesh
-``--everyday-mesh`` names); ``python -c "import skelfilter"``. The volume: fandisk's voxelization at
-``--volume-size`` with the thesis' stripes, through ``denoise_volume``, against one scipy EDT of it.
+of ``--repeat``, three by default): the bundled Stanford bunny, clean (69 451 faces), against
+reading and writing it in a fresh process (the floor: the interpreter, trimesh and the file); an
+everyday scan, the bunny with Gaussian noise of 0.2 mean edge lengths along its normals as the
+literature's Bunny0.2 (or the mesh ``--everyday-mesh`` names); ``python -c "import skelfilter"``.
+The volume: fandisk's voxelization at ``--volume-size`` with the thesis' stripes, through
+``denoise_volume``, against one scipy EDT of it.
 """
 
 import argparse
@@ -183,8 +185,8 @@ def _wall(args, repeat=3):
     return best
 
 
-def commands(tmp, everyday_mesh=None):
-    """Seconds of the first commands a user runs (see the module's docstring)."""
+def commands(tmp, everyday_mesh=None, repeat=3):
+    """Seconds of the first commands a user runs (see the module's docstring), best of ``repeat``."""
     everyday = everyday_mesh or os.path.join(tmp, "bunny-noisy-0.2.ply")
     if everyday_mesh is None:
         make_everyday(everyday)
@@ -194,11 +196,11 @@ def commands(tmp, everyday_mesh=None):
              "mesh_files.save_mesh(mesh_files.load_mesh(sys.argv[1]), sys.argv[2])", BUNNY, out]
     _wall(denoise + [BUNNY, out], repeat=1)  # the numba cache of the mesh path's kernels
     return {
-        "clean_s": _wall(denoise + [BUNNY, out]),
-        "read_write_s": _wall(floor),
-        "everyday_s": _wall(denoise + [everyday, out]),
+        "clean_s": _wall(denoise + [BUNNY, out], repeat),
+        "read_write_s": _wall(floor, repeat),
+        "everyday_s": _wall(denoise + [everyday, out], repeat),
         "everyday_mesh": everyday_mesh or "the bundled bunny with 0.2 mean edge lengths of normal noise",
-        "import_s": _wall([sys.executable, "-c", "import skelfilter"]),
+        "import_s": _wall([sys.executable, "-c", "import skelfilter"], repeat),
     }
 
 
@@ -301,6 +303,7 @@ def main():
     parser.add_argument("--volume-size", type=int, default=256, help="the volume's grid (0: no volume)")
     parser.add_argument("--everyday-mesh", help="the everyday scan to time (default: the bunny with noise)")
     parser.add_argument("--no-commands", action="store_true", help="skip the clean, everyday and import runs")
+    parser.add_argument("--repeat", type=int, default=3, help="fresh processes per command (the best counts)")
     parser.add_argument("--volume", type=int, help=argparse.SUPPRESS)
     parser.add_argument("--noisy", nargs=2, help=argparse.SUPPRESS)
     parser.add_argument("--one", nargs=2, help=argparse.SUPPRESS)
@@ -328,7 +331,7 @@ def main():
             results.append(json.loads(_child("--one", size, src)))
             print(f"  {size}: {results[-1]['total_s']:.1f} s", file=sys.stderr)
         volume = json.loads(_child("--volume", args.volume_size)) if args.volume_size else None
-        runs = None if args.no_commands else commands(tmp, args.everyday_mesh)
+        runs = None if args.no_commands else commands(tmp, args.everyday_mesh, args.repeat)
     fits = exponents(results)
     print_table(results, fits, info, volume, runs)
     if args.json:

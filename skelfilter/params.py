@@ -41,8 +41,9 @@ class DenoiseParams:
     resolution: int | None = _p(
         None,
         "Resolution",
-        "voxels along the longest side of the mesh's bounding box; unset: twice the longest side "
-        "over the mesh's mean edge length, within 96-256 and lowered to fit in memory",
+        "voxels along the longest side of the mesh's bounding box; unset: a voxel mesh (marching cubes "
+        "of a volume) on the grid it was made on, up to 256; any other twice the longest side over the "
+        "mesh's mean edge length, within 96-256; lowered to fit in memory",
         "voxels",
         limits=(16, 4096),
     )

@@ -59,9 +59,11 @@ def within(mesh, points, radius):
 
     points = np.asarray(points, dtype=np.float64)
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
-    triangles = vertices[np.asarray(mesh.faces, dtype=np.int64)]
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    triangles = vertices[faces]
     centroids = triangles.mean(axis=1)
-    found = cKDTree(np.vstack([centroids, vertices])).query(points, distance_upper_bound=radius)[0] <= radius
+    corners = vertices[np.unique(faces)]  # a vertex no face uses is not on the surface
+    found = cKDTree(np.vstack([centroids, corners])).query(points, distance_upper_bound=radius)[0] <= radius
     open_ = np.flatnonzero(~found)
     if len(open_) == 0:
         return found
