@@ -47,6 +47,20 @@ def test_height_above_matches_brute_force():
     np.testing.assert_allclose(full, _brute_height(part, base), atol=1e-5)
 
 
+def test_peaks_and_surface_cells_match_scipy():
+    rng = np.random.default_rng(5)
+    for shape in ((9, 11, 7), (1, 6, 6), (20, 3, 14)):
+        height = rng.integers(0, 8, shape).astype(np.float32) * np.float32(0.7)
+        for window in (3, 5):
+            top = ndimage.maximum_filter(height, size=window)
+            expected = (height >= 3.0) & (height >= top) & (height <= 4.5)
+            assert np.array_equal(noise_estimate.local_peaks(height, 3.0, 4.5, window), expected)
+        volume = rng.random(shape) < 0.8  # set voxels on the array's faces too
+        for cell in (1, 2, 3):
+            surface = np.argwhere(volume & ~ndimage.binary_erosion(volume)) // cell
+            assert noise_estimate.surface_cells(volume, cell) == len(np.unique(surface, axis=0))
+
+
 def test_height_above_is_capped_far_from_the_base():
     base = np.zeros((30, 10, 10), dtype=bool)
     base[1:3, 4:6, 4:6] = True

@@ -29,6 +29,7 @@ pruning lowers by a voxel or two) and 10-11 for h = 7. See ``docs/noise-estimate
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit, prange
 from scipy import ndimage
 
 from skelfilter.core.distance import distance_and_features
@@ -102,6 +103,72 @@ def surface_voxels(volume):
     return volume & ~ndimage.binary_erosion(volume)
 
 
+def surface_cells(volume, cell):
+    """Number of cells (cubes of side ``cell`` voxels from the grid's corner) holding a voxel of
+    `surface_voxels` of ``volume``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> cube = np.zeros((8, 8, 8), bool); cube[1:7, 1:7, 1:7] = True
+    >>> int(surface_cells(cube, 4))
+    8
+    """
+    volume = np.ascontiguousarray(volume, dtype=bool)
+    held = np.zeros(tuple(-(-n // cell) for n in volume.shape), dtype=bool)
+    _mark_surface_cells(volume, cell, held)
+    return int(np.count_nonzero(held))
+
+
+@njit(cache=True, parallel=True)
+def _mark_surface_cells(x, cell, held):
+    # The planes of one row of cells run in one thread: no two threads write the same cell.
+    nx, ny, nz = x.shape
+    for ci in prange(held.shape[0]):
+        for i in range(ci * cell, min((ci + 1) * cell, nx)):
+            for j in range(ny):
+                for k in range(nz):
+                    if x[i, j, k] and (i == 0 or i == nx - 1 or j == 0 or j == ny - 1 or k == 0 or k == nz - 1
+                                       or not (x[i - 1, j, k] and x[i + 1, j, k] and x[i, j - 1, k]
+                                               and x[i, j + 1, k] and x[i, j, k - 1] and x[i, j, k + 1])):
+                        held[ci, j // cell, k // cell] = True
+
+
+def local_peaks(height, least, highest, window):
+    """Voxels whose ``height`` lies in [least, highest] and is the largest of the ``window``-sided cube
+    around them (clipped to the array): ``maximum_filter(height, window) <= height`` there, scipy's
+    reflected border giving the same maximum.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> h = np.zeros((5, 5, 5), np.float32); h[2, 2, 2] = 4; h[2, 2, 3] = 3
+    >>> [tuple(int(i) for i in p) for p in np.argwhere(local_peaks(h, 3.0, 9.0, 3))]
+    [(2, 2, 2)]
+    """
+    out = np.zeros(height.shape, dtype=bool)
+    _local_peaks(np.ascontiguousarray(height), np.float32(least), np.float32(highest), window // 2, out)
+    return out
+
+
+@njit(cache=True, parallel=True)
+def _local_peaks(h, least, highest, reach, out):
+    nx, ny, nz = h.shape
+    for i in prange(nx):
+        for j in range(ny):
+            for k in range(nz):
+                v = h[i, j, k]
+                if v < least or v > highest:
+                    continue
+                top = True
+                for a in range(max(i - reach, 0), min(i + reach + 1, nx)):
+                    for b in range(max(j - reach, 0), min(j + reach + 1, ny)):
+                        for c in range(max(k - reach, 0), min(k + reach + 1, nz)):
+                            if h[a, b, c] > v:
+                                top = False
+                out[i, j, k] = top
+
+
 def _cells(coords, box, cell):
     """Distinct cells (cubes of side ``cell`` voxels on the full grid) holding one of the voxels
     ``coords`` (an (n, 3) array of indices into ``box``)."""
@@ -137,13 +204,11 @@ def estimate_noise(stage_set, pruned, resolution, side="bumps"):
     highest = HIGHEST_NOISE * resolution
     cell = max(2, int(round(CELL * resolution)))
     removed = stage_set & ~pruned
-    surface_box = bounding_box(stage_set, margin=1)
-    surface = len(_cells(np.argwhere(surface_voxels(stage_set[surface_box])), surface_box, cell)) if surface_box else 0
+    surface = surface_cells(stage_set, cell)
     box, height = height_above(removed, pruned, highest + 1)
     if box is None or surface == 0:
         return NoiseEstimate(side, False, 0.0, 0.0, 0)
-    top = ndimage.maximum_filter(height, size=PEAK_WINDOW)
-    peaks = (height >= LEAST_PEAK) & (height >= top) & (height <= highest)
+    peaks = local_peaks(height, LEAST_PEAK, highest, PEAK_WINDOW)
     labels, count = ndimage.label(peaks, structure=np.ones((3, 3, 3), dtype=bool))
     # A plateau of peaks longer than RIDGE is a feature's ridge (a slat, a rim pruned along
     # its length): it counts in one cell, its first voxel's, however many cells it crosses.
