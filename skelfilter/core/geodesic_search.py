@@ -59,7 +59,7 @@ def _astar_chunk(indptr, indices, steps, coords, sources, targets, cap, queries_
     # Tags of the nodes near a failed search's target, and of those near its source.
     near = np.zeros(n, dtype=np.int32)
     seen = np.zeros(n, dtype=np.int32)
-    ring = np.empty((1, 1024), dtype=np.int32)
+    ring = np.empty(1024, dtype=np.int32)
     tag = 0
     for r in range(first, (len(sources) + _RUN - 1) // _RUN, stride):
         for q in range(r * _RUN, min((r + 1) * _RUN, len(sources))):
@@ -118,20 +118,20 @@ def _astar_chunk(indptr, indices, steps, coords, sources, targets, cap, queries_
 
 @njit(cache=True)
 def _within_hops(indptr, indices, start, seen, mark, ring):
-    """The nodes at most `_HOPS` edges from ``start`` (tagged ``mark`` in ``seen``); their count, in ``ring[0]``."""
-    ring[0, 0] = start
+    """The nodes at most `_HOPS` edges from ``start`` (tagged ``mark`` in ``seen``); their count, in ``ring``."""
+    ring[0] = start
     seen[start] = mark
     count = 1
     begin = 0
     for _ in range(_HOPS):
         end = count
         for i in range(begin, end):
-            u = ring[0, i]
+            u = ring[i]
             for e in range(indptr[u], indptr[u + 1]):
                 v = indices[e]
-                if seen[v] != mark and count < ring.shape[1]:
+                if seen[v] != mark and count < len(ring):
                     seen[v] = mark
-                    ring[0, count] = v
+                    ring[count] = v
                     count += 1
         begin = end
     return count
@@ -143,7 +143,7 @@ def _cover(indptr, indices, sources, targets, queries_of, s, t, near, seen, ring
     _within_hops(indptr, indices, t, near, tag, ring)
     count = _within_hops(indptr, indices, s, seen, tag, ring)
     for i in range(count):
-        s2 = ring[0, i]
+        s2 = ring[i]
         for q in range(queries_of[s2], queries_of[s2 + 1]):
             if near[targets[q]] == tag:
                 covered[q] = True
