@@ -63,12 +63,13 @@ class DenoiseParams:
         "preset",
         "Fine pass",
         "smooth the noise below the skeleton's scale, keeping edges and thin parts, as strong as the "
-        "noise measured on the input (none found: nothing changes): with the input mesh as output, "
-        "bilateral filtering of the face normals (Zheng et al. 2011), then vertices fitted to them "
-        "(Sun et al. 2007); on a volume, before the voxel stage, Gaussians of the mask from sigma 2 "
-        "voxels down, each where it removes or adds no part standing out of the noise, islands and "
-        "pits removed; 'preset': the preset's (default: on; thesis: off)",
-        choices=("preset", "on", "off"),
+        "noise measured on the input: with the input mesh as output, bilateral filtering of the face "
+        "normals (Zheng et al. 2011), then vertices fitted to them (Sun et al. 2007); on a volume, "
+        "before the voxel stage, Gaussians of the mask from sigma 2 voxels down, each where it removes "
+        "or adds no part standing out of the noise, islands and pits removed; 'auto': where the input "
+        "measures noisy (a mesh: its surface roughness) or the voxel stage moved vertices; 'on': always; "
+        "'off': never; 'preset': the preset's (default: auto; thesis: off)",
+        choices=("preset", "auto", "on", "off"),
     )
     normal_filter: str = _p(
         "adaptive",

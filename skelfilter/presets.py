@@ -16,7 +16,7 @@ _THESIS = {"stages": "both", "threshold": 18.0, "threshold_relative": None, "cap
 PRESETS = {
     "default": {"stages": "foreground", "threshold": None, "threshold_relative": 30.0 / 160.0,
                 "cap_factor": 1.0, "unchanged_surface": "input", "thin_radius_relative": 4.0 / 160.0,
-                "output_mesh": "auto", "keep_features": "on", "fine_pass": "on",
+                "output_mesh": "auto", "keep_features": "on", "fine_pass": "auto",
                 "rho_plus_from": "ahead", "derivative_min_rho": 7.0},
     # §8.1.1-8.1.2 as printed: eq. 5.6 over every visited neighbour, sigma_bar wherever eq. 4.3 allows
     # and the voxel has two distinct feature points (rho >= 1; rho = 0 has no feature pair, eq. 3.6).

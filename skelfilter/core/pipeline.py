@@ -264,10 +264,10 @@ def _fine_pass_then_stages(cubic, params, progress):
     run on the input directly.
     """
     _cubic_params(cubic, params)  # too large a grid is refused before the fine pass runs
-    if params.fine_pass == "on" and params.prunes_whatever_found:
+    if params.fine_pass != "off" and params.prunes_whatever_found:
         progress.note("fine pass: not run, the stages prune at the skeleton's scale whatever the noise "
                       "(keep_features off, or the threshold or the noise height given)")
-    elif params.fine_pass == "on":
+    elif params.fine_pass != "off":
         with progress.step("fine pass"):
             smoothed, fine = volume_fine_pass.fine_pass(cubic)
         progress.note(fine.describe())

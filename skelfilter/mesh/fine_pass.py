@@ -103,7 +103,7 @@ def guided_weight(flat):
     return min(max((flat - lo) / (hi - lo), 0.0), 1.0)
 
 
-def fine_pass(vertices, faces, movable=None, normal_filter="adaptive"):
+def fine_pass(vertices, faces, movable=None, normal_filter="adaptive", least_level=0.0):
     """Feature-preserving smoothing of a mesh's vertices, its strength set by the noise it measures.
 
     `bilateral_normals` with the `schedule` of the mesh's `noise_level`; with ``normal_filter``
@@ -122,6 +122,9 @@ def fine_pass(vertices, faces, movable=None, normal_filter="adaptive"):
     movable : (n,) bool array, optional
         Vertices allowed to move.
     normal_filter : {'adaptive', 'bilateral'}
+    least_level : float, optional
+        The `noise_level` to smooth as at least (a mesh whose faces come in flat pairs, a depth
+        camera's terraces, measures less noise than it carries).
 
     Returns
     -------
@@ -143,7 +146,7 @@ def fine_pass(vertices, faces, movable=None, normal_filter="adaptive"):
     faces = np.asarray(faces, dtype=np.int64)
     normals, areas, centroids = face_geometry(vertices, faces)
     pairs = face_neighbours(faces, len(vertices))
-    level = noise_level(normals, pairs)
+    level = max(noise_level(normals, pairs), least_level)
     sigma_r, normal_iterations, vertex_iterations = schedule(level)
     filtered = bilateral_normals(normals, areas, centroids, pairs, sigma_r, normal_iterations)
     weight = 0.0

@@ -1,41 +1,96 @@
-"""Which output suits an input: the user's own mesh, smoothed, or a new closed solid.
+"""Which output suits an input: the user's own mesh as it was, smoothed, or a new closed solid.
 
-Three measurements decide the ``auto`` output mesh of the default preset:
+The route of a mesh that was not made of voxels is decided by its `surface_roughness`,
+which depends neither on how the file stores the vertices nor on the tessellation:
+
+- under `CLEAN_ROUGHNESS` degrees the mesh is clean and comes back as it was, before anything is
+  voxelized (clean meshes of every kind measure 0-4.2°, the noisy ones from 6.2°);
+- noisy, with a `coarse_roughness` under `SKELETON_ROUGHNESS` degrees: the noise is below the
+  skeleton's scale (vertex noise, a depth camera's, spikes), and the fine pass smooths the input mesh;
+- noisy at a coarser scale too, and a solid: the voxel stage measures the noise at the skeleton's
+  scale; it prunes where that noise covers at least `SKELETON_COVERAGE` of the surface, and the fine
+  pass smooths the input mesh otherwise.
+
+Measured on the labelled corpus of ``benchmarks/routing.py`` (``docs/routing.md``). A voxel mesh
+(marching cubes of a volume: its faces are the voxels' stair steps, rough by construction) goes to the
+voxel stage, which tells its noise from its steps. Further measurements:
 
 - `is_closed`, `solid_share`: is the input a solid? A closed mesh is. Otherwise its voxelization
   fills whatever it encloses; when that closes only small holes (the bunny's base), nearly all of
   the voxel surface lies on the input mesh, while an open surface (a relief, a single-view scan)
-  gets a cap that lies far from it.
-- does the input carry noise at the skeleton's scale? `skelfilter.core.noise_estimate` measures it on
-  what the pruning removes (many low peaks all over the surface); the pipeline asks it.
-- the fine noise on the mesh itself (`skelfilter.mesh.normal_filtering.noise_level`): a scanner's
-  noise turns every face away from its neighbours. Where it is strong the fine pass is the better
-  tool and the voxel stage's verdict mixes that noise with real relief; voxel-derived meshes
-  (marching cubes, segmentations) have a flat neighbour for every face.
-
-A new closed mesh is made when noise at the skeleton's scale is found and the fine noise stays under
-`FINE_NOISE`. Chosen on `benchmarks/quality.py` (thesis-style noise, seed 1 at 160: fine noise at
-most 0.007) and the literature's pairs (fine noise 0.115-0.235); see README "Output meshes".
+  gets a cap that lies far from it. Only a solid goes to the voxel stage.
+- `fine_noise` of a voxel mesh: whether its faces turn away from all their neighbours. Voxel meshes
+  have a flat neighbour for every face; where the voxel stage moved none of its vertices and it
+  measures under `CLEAN_FINE_NOISE` it comes back as it was.
 """
+
+from dataclasses import dataclass
 
 import numpy as np
 
 from skelfilter.core.noise_estimate import surface_voxels
-from skelfilter.mesh import normal_filtering
+from skelfilter.mesh import normal_filtering, surface_roughness
 from skelfilter.mesh.closest_points import within
 
 # Voxels of the input's voxel surface that must lie within `NEAR` voxels of the input mesh for the
 # input to count as a solid.
 SOLID_SHARE = 0.98
 NEAR = 2.0
-# From this fine noise the input mesh comes back smoothed by the fine pass, the voxel stage skipped.
-FINE_NOISE = 0.08
-# Under this fine noise a mesh has none: where the voxel stage changed nothing it comes back as it was,
-# without the fine pass (clean meshes measure at most 0.037, the rocker arm; the literature's noisy
-# pairs from 0.115, Bunny0.2).
+# Under this fine noise a voxel mesh has none: where the voxel stage changed nothing it comes back as it
+# was, without the fine pass.
 CLEAN_FINE_NOISE = 0.06
 # Faces, or voxels, on which the shares above are measured at most (a random sample, fixed seed).
 SAMPLE = 50_000
+# Degrees of `surface_roughness.roughness` from which a mesh carries noise: clean meshes of the
+# routing corpus measure at most 4.2 (a finely tessellated scan, the Stanford bunny), noisy ones from
+# 6.2 (a depth camera's scan of fandisk).
+CLEAN_ROUGHNESS = 5.0
+# Degrees of `surface_roughness.coarse_roughness` from which the noise may stand at the skeleton's
+# scale: the thesis' bumps measure 15.9-24.3 on every kind of mesh (marching cubes, decimated,
+# remeshed), vertex noise, depth scans and spikes 1.5-12.7 (fandisk at 0.7 edge lengths; 32 on meshes
+# of slivers, which the voxel stage then finds clean of bumps).
+SKELETON_ROUGHNESS = 14.0
+# The share of the surface that the voxel stage's noise estimate must find covered for a mesh that was
+# not made of voxels to be pruned: the thesis' bumps cover 0.11-0.54 of it, vertex noise run through the
+# voxel stage at most 0.09 (spikes on the bunny; fandisk at 0.7 edge lengths 0.08).
+SKELETON_COVERAGE = 0.10
+# The fine pass on a noisy mesh smooths at least as at this `normal_filtering.noise_level` (the least
+# the literature's noisy pairs measure is 0.115): the noise level of meshes whose faces come in flat
+# pairs (depth cameras' terraces, quads split in two) reads near 0 though they carry noise.
+LEAST_FINE_LEVEL = 0.11
+
+
+@dataclass(frozen=True)
+class Roughness:
+    """What `measure` found on a mesh, in degrees (`skelfilter.mesh.surface_roughness`)."""
+
+    fine: float
+    coarse: float | None  # measured only where the fine roughness finds noise
+
+    @property
+    def noisy(self):
+        return self.fine >= CLEAN_ROUGHNESS
+
+    @property
+    def skeleton_scale(self):
+        return self.noisy and self.coarse >= SKELETON_ROUGHNESS
+
+    def describe(self):
+        """One line a user can read."""
+        if not self.noisy:
+            return f"surface roughness {self.fine:.1f}° (clean under {CLEAN_ROUGHNESS:g}°)"
+        scale = (f"{self.coarse:.1f}° over wider patches (from {SKELETON_ROUGHNESS:g}°: noise at the skeleton's "
+                 "scale possible)" if self.skeleton_scale else
+                 f"{self.coarse:.1f}° over wider patches (under {SKELETON_ROUGHNESS:g}°: fine noise)")
+        return f"surface roughness {self.fine:.1f}° (noisy from {CLEAN_ROUGHNESS:g}°), {scale}"
+
+
+def measure(mesh):
+    """The `Roughness` of a mesh."""
+    points, normals = surface_roughness.surface_samples(mesh.vertices, mesh.faces)
+    fine = surface_roughness.roughness(points, normals)
+    coarse = surface_roughness.coarse_roughness(points, normals, len(mesh.faces)) if fine >= CLEAN_ROUGHNESS else None
+    return Roughness(fine, coarse)
 
 
 def is_closed(faces):

@@ -98,23 +98,32 @@ def _denoise_unit(mesh, params, progress):
     vertices of ``mesh`` or None, the DenoiseResult, the Grid)."""
     given = voxel_fields_given(params)
     asked = [name for name in given if name != "resolution"]  # the resolution also tells solids from surfaces
-    lattice = None
-    if params.resolution is None:
-        resolution, lattice = _fitting_resolution(mesh, params)
+    skipped = None  # why the voxel stage does not run
+    roughness = None  # a mesh not made of voxels: its output_choice.Roughness
+    lattice = voxelize.voxel_lattice(mesh)
+    if params.output_mesh == "auto" and not asked and lattice is None:
+        with progress.step("roughness"):
+            roughness = output_choice.measure(mesh)
+        if not roughness.noisy and params.fine_pass != "on":
+            progress.note(f"{roughness.describe()}: the mesh comes back as it was (--fine-pass on smooths it "
+                          "anyway, --output-mesh closed runs the voxel stage)")
+            resolution = params.resolution or voxelize.auto_resolution(mesh)
+            grid = _grid(mesh, resolution, params.with_(resolution=resolution).padding_voxels)
+            result = DenoiseResult(mask=None, field=None, timings=progress.timings)
+            return None, np.array(mesh.vertices, dtype=np.float64), result, grid
+        if not roughness.skeleton_scale:
+            skipped = f"{roughness.describe()}: the input mesh comes back, smoothed by the fine pass"
+    if params.resolution is None and skipped is not None:  # only the frame of the (empty) result
+        params = params.with_(resolution=voxelize.auto_resolution(mesh))
+    elif params.resolution is None:
+        resolution, lattice = _fitting_resolution(mesh, params, lattice)
         params = params.with_(resolution=resolution)
         progress.note(f"resolution {params.resolution} voxels " + (
             "(the voxel grid the mesh was made on)" if lattice else "(from the mesh's mean edge length)"))
+    else:
+        lattice = None  # the resolution asked for
     output = params.output_mesh
-    skipped = None  # why the voxel stage does not run
-    fine = None
     occupancy = None
-    if output == "auto":
-        with progress.step("fine noise"):
-            fine = output_choice.fine_noise(mesh)
-        # Voxel-stage parameters given by the caller ask for the voxel stage: it runs.
-        if fine >= output_choice.FINE_NOISE and not asked:
-            skipped = (f"fine noise {fine:.3f} (from {output_choice.FINE_NOISE:g}): the input mesh comes back, "
-                       "smoothed by the fine pass")
     if skipped is None:
         occupancy, grid = _voxelize(mesh, params.resolution, params.padding_voxels, progress, padding_from(params),
                                     required=output == "closed", lattice=lattice)
@@ -127,7 +136,7 @@ def _denoise_unit(mesh, params, progress):
                 or output_choice.solid_share(occupancy, mesh, grid) >= output_choice.SOLID_SHARE)
             if not solid:
                 skipped = ("the input is an open surface: its own mesh comes back, smoothed by the fine pass "
-                           "(the voxel stage needs a solid; the output mesh 'closed' makes one)")
+                           "(the voxel stage needs a solid)")
                 if given:
                     skipped += f" (resolution {params.resolution} was used only to tell a solid from a surface)"
     if skipped is not None:
@@ -138,13 +147,19 @@ def _denoise_unit(mesh, params, progress):
             skipped += f" (resolution {params.resolution} is not used)"
         progress.note(skipped)
         result = DenoiseResult(mask=occupancy, field=None, timings=progress.timings)
-        return None, _kept_vertices(mesh, None, params, grid, progress, fine), result, grid
+        return None, _kept_vertices(mesh, None, params, grid, progress, roughness), result, grid
     _require_inside(occupancy, mesh, grid, params.resolution)
     result = denoise_padded(occupancy.copy(), params, progress)
     result.voxels_changed = int(np.count_nonzero(result.mask != occupancy))
     voxel_moves = output == "input"
     if output == "auto":
-        output = "closed" if not passes_through(params, result) and result.voxels_changed else "input"
+        pruned = not passes_through(params, result) and result.voxels_changed
+        found = result.noise.get("foreground")
+        if pruned and roughness is not None and found is not None and found.coverage < output_choice.SKELETON_COVERAGE:
+            pruned = False  # too little for noise at the skeleton's scale on a mesh not made of voxels
+            progress.note(f"noise at the skeleton's scale on {100 * found.coverage:.0f} % of the surface (from "
+                          f"{100 * output_choice.SKELETON_COVERAGE:.0f} % on a mesh not made of voxels): not pruned")
+        output = "closed" if pruned else "input"
         why = "noise at the skeleton scale removed" if output == "closed" else "no noise at the skeleton scale"
         progress.note(f"output: {'a new closed mesh' if output == 'closed' else 'the input mesh'} ({why})")
     if output == "closed":
@@ -154,7 +169,7 @@ def _denoise_unit(mesh, params, progress):
         del occupancy
         with progress.step("marching cubes"):
             return marching_cubes.field_to_mesh(result.field, grid), None, result, grid
-    vertices = _kept_vertices(mesh, (result, occupancy) if voxel_moves else None, params, grid, progress, fine)
+    vertices = _kept_vertices(mesh, (result, occupancy) if voxel_moves else None, params, grid, progress, roughness)
     return None, vertices, result, grid
 
 
@@ -164,11 +179,14 @@ def _attributes(mesh):
     return {"vertex": "vertex colours", "face": "face colours", "texture": "texture coordinates"}.get(kind, "")
 
 
-def _kept_vertices(mesh, voxels, params, grid, progress, fine=None):
+def _kept_vertices(mesh, voxels, params, grid, progress, roughness=None):
     """The input mesh's vertices, moved: onto the denoised surface where ``voxels`` (the
-    DenoiseResult and the input occupancy, or None) says the shape changed, then by the fine pass
-    unless nothing moved and the mesh has no fine noise (``fine``: its `output_choice.fine_noise`
-    when known)."""
+    DenoiseResult and the input occupancy, or None) says the shape changed, then by the fine pass.
+
+    The fine pass runs with ``fine_pass`` on; with ``auto``, where vertices moved or the mesh is noisy:
+    by its ``roughness`` (`output_choice.Roughness`) where measured, else (a voxel mesh) by its
+    `output_choice.fine_noise`.
+    """
     # Vertices split along UV seams or by the file format move as one.
     welded, inverse = np.unique(np.asarray(mesh.vertices, dtype=np.float64), axis=0, return_inverse=True)
     inverse = inverse.reshape(-1)
@@ -180,22 +198,24 @@ def _kept_vertices(mesh, voxels, params, grid, progress, fine=None):
             vertices, moved = vertex_projection.move_input_vertices(
                 welded, faces, result.mask, occupancy, result.field, surface_field.mask_field(occupancy), grid,
                 max_move=params.threshold_voxels / 2)
-    smoothing = params.fine_pass == "on"
-    if smoothing and not moved.any():
-        if fine is None:
-            with progress.step("fine noise"):
-                fine = output_choice.fine_noise(mesh)
+    smoothing = params.fine_pass != "off"
+    least_level = 0.0
+    if roughness is not None and roughness.noisy:
+        least_level = output_choice.LEAST_FINE_LEVEL
+    elif params.fine_pass == "auto" and not moved.any() and roughness is None:
+        with progress.step("fine noise"):
+            fine = output_choice.fine_noise(mesh)
         if fine < output_choice.CLEAN_FINE_NOISE:
             smoothing = False
             progress.note(f"fine noise {fine:.3f} (under {output_choice.CLEAN_FINE_NOISE:g}): no fine pass, "
-                          "the mesh comes back as it was")
+                          "the mesh comes back as it was (--fine-pass on smooths it anyway)")
     if smoothing:
         with progress.step("fine pass"):
             # The rim of an open surface stays where it was (measured on Nicolo0.2: both scores
             # lower than with the rim smoothed, and the boundary exactly the input's).
             rim = vertex_projection.boundary_vertices(faces, len(vertices))
             smoothed, reference = fine_pass.fine_pass(vertices, faces, movable=~rim,
-                                                      normal_filter=params.normal_filter)
+                                                      normal_filter=params.normal_filter, least_level=least_level)
             # Faces keep the filtered normals' orientation, or the denoised surface's where
             # vertices moved onto it.
             near_moved = moved[faces].any(axis=1)
@@ -208,8 +228,9 @@ def _kept_vertices(mesh, voxels, params, grid, progress, fine=None):
     return vertices[inverse]
 
 
-def _fitting_resolution(mesh, params):
-    """The resolution for ``mesh`` and the voxel lattice to lay its grid on, or None.
+def _fitting_resolution(mesh, params, lattice):
+    """The resolution for ``mesh`` and the voxel ``lattice`` it was made on (`voxelize.voxel_lattice`)
+    to lay its grid on, or None.
 
     A voxel mesh (`voxelize.voxel_lattice`: marching cubes of a volume) is denoised on the grid it
     was made on, up to `voxelize.AUTO_RESOLUTION_RANGE`'s top: its noise is made of those voxels,
@@ -217,7 +238,6 @@ def _fitting_resolution(mesh, params):
     more. Otherwise `voxelize.auto_resolution`. Either is lowered until the grid fits in memory
     (at least 16), and the lattice is then not used.
     """
-    lattice = voxelize.voxel_lattice(mesh)
     if lattice is not None:
         resolution = int(round(float(np.ptp(np.asarray(mesh.bounds), axis=0).max()) / lattice[0]))
         if 16 <= resolution <= voxelize.AUTO_RESOLUTION_RANGE[1] and _fits(mesh, params, resolution, lattice):
