@@ -98,6 +98,8 @@ def _denoise_unit(mesh, params, progress):
     vertices of ``mesh`` or None, the DenoiseResult, the Grid)."""
     given = voxel_fields_given(params)
     asked = [name for name in given if name != "resolution"]  # the resolution also tells solids from surfaces
+    if params.resolution is not None:  # a grid that cannot be is refused whatever runs
+        _fits(mesh, params, params.resolution, refuse=True)
     skipped = None  # why the voxel stage does not run
     roughness = None  # a mesh not made of voxels: its output_choice.Roughness
     lattice = voxelize.voxel_lattice(mesh)
@@ -105,8 +107,9 @@ def _denoise_unit(mesh, params, progress):
         with progress.step("roughness"):
             roughness = output_choice.measure(mesh)
         if not roughness.noisy and params.fine_pass != "on":
-            progress.note(f"{roughness.describe()}: the mesh comes back as it was (--fine-pass on smooths it "
-                          "anyway, --output-mesh closed runs the voxel stage)")
+            unused = f" (resolution {params.resolution} is not used)" if given else ""
+            progress.note(f"{roughness.describe()}: the mesh comes back as it was{unused} (--fine-pass on smooths "
+                          "it anyway, --output-mesh closed runs the voxel stage)")
             resolution = params.resolution or voxelize.auto_resolution(mesh)
             grid = _grid(mesh, resolution, params.with_(resolution=resolution).padding_voxels)
             result = DenoiseResult(mask=None, field=None, timings=progress.timings)
