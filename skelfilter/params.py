@@ -53,9 +53,10 @@ class DenoiseParams:
         "'input': the input mesh itself with its vertices moved (same faces in the same order, "
         "colours and UVs kept, an open surface stays open): where the input is a solid, vertices of "
         "removed bumps and filled dents go onto the denoised surface; then the fine pass; "
-        "'closed': a new watertight marching-cubes mesh of the denoised solid (the CLI's --close); "
-        "'auto': 'closed' for a solid covered in noise at the skeleton's scale, else 'input' with "
-        "the fine pass only (what the pruning would take off such a mesh is its own relief); "
+        "'closed': a new watertight marching-cubes mesh of the denoised solid (the CLI's --close; an open "
+        "surface is refused); "
+        "'auto': the input as it was where its surface roughness finds no noise, 'closed' for a solid "
+        "covered in noise at the skeleton's scale, else 'input' with the fine pass only; "
         "'preset': the preset's (default: auto; thesis: closed)",
         choices=("preset", "auto", "input", "closed"),
     )

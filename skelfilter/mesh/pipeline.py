@@ -132,11 +132,16 @@ def _denoise_unit(mesh, params, progress):
                                     required=output == "closed", lattice=lattice)
     else:  # decided before voxelizing: the grid is only the frame of the (empty) result
         grid = _grid(mesh, params.resolution, params.padding_voxels, lattice)
-    if skipped is None and output != "closed":
+    if skipped is None:
         with progress.step("solid check"):
             solid = occupancy.any() and (
                 output_choice.is_closed(mesh.faces)
                 or output_choice.solid_share(occupancy, mesh, grid) >= output_choice.SOLID_SHARE)
+            if not solid and output == "closed":
+                raise InputError(
+                    f"the input is an open surface (less than {100 * output_choice.SOLID_SHARE:g} % of its "
+                    "voxelization lies on it): a new closed mesh of it would be the voxels it happens to enclose, "
+                    "not the scan; output_mesh auto or input keeps the surface and smooths it")
             if not solid:
                 skipped = ("the input is an open surface: its own mesh comes back, smoothed by the fine pass "
                            "(the voxel stage needs a solid)")

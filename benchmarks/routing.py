@@ -1,0 +1,129 @@
+"""What the default runs on each input of the routing corpus, against what the input needs.
+
+    python benchmarks/routing.py [--out docs/routing.md] [--split tuning|held-aside|all] [--errors]
+
+Each case of ``routing_corpus.CASES`` is denoised with the default preset (no flags) and the route is
+read from what happened: ``none`` (the output equals the input), ``fine`` (the input mesh came back
+smoothed) or ``skeleton`` (the voxel stage pruned: a new closed mesh). The report holds the
+confusion table per split, every case with its roughness and route, and with ``--errors`` the
+literature's θ (mean face-normal angle to the truth) and the change measured on clean inputs
+(largest vertex move over the bounding box's diagonal).
+"""
+
+import argparse
+import datetime
+import subprocess
+import sys
+import time
+import warnings
+
+import numpy as np
+import routing_corpus
+
+from skelfilter.evaluation import metrics
+from skelfilter.mesh import output_choice
+from skelfilter.mesh import pipeline as mesh_pipeline
+from skelfilter.runtime.progress import Progress
+
+ROUTES = routing_corpus.NEEDS
+
+
+def route_of(mesh, out, result):
+    """The route the default took: none, fine or skeleton."""
+    if result is not None and result.stages and len(out.faces) != len(mesh.faces):
+        return "skeleton"
+    if len(out.vertices) == len(mesh.vertices) and np.array_equal(np.asarray(out.vertices), np.asarray(mesh.vertices)):
+        return "none"
+    return "fine"
+
+
+def run_case(name, errors):
+    case = routing_corpus.CASES[name]
+    mesh, clean = routing_corpus.load(name)
+    start = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        out, result, _ = mesh_pipeline.denoise_mesh_detailed(mesh, progress=Progress(enabled=False))
+    seconds = time.perf_counter() - start
+    roughness = output_choice.measure(mesh)
+    row = {"name": name, "kind": case.kind, "storage": case.storage, "split": case.split, "needs": case.needs,
+           "ran": route_of(mesh, out, result), "fine": roughness.fine, "coarse": roughness.coarse,
+           "faces": len(mesh.faces), "seconds": seconds}
+    if errors:
+        diagonal = float(np.linalg.norm(np.ptp(np.asarray(clean.vertices), axis=0)))
+        if case.needs == "none":
+            same = len(out.vertices) == len(mesh.vertices)
+            row["moved"] = (float(np.abs(np.asarray(out.vertices) - np.asarray(mesh.vertices)).max()) / diagonal
+                            if same else float("nan"))
+        elif len(clean.faces) == len(mesh.faces) or case.needs == "skeleton":
+            row["theta_in"] = metrics.literature_errors(mesh, clean).theta
+            row["theta_out"] = metrics.literature_errors(out, clean).theta
+    return row
+
+
+def confusion(rows):
+    table = {(a, b): 0 for a in ROUTES for b in ROUTES}
+    for row in rows:
+        table[row["needs"], row["ran"]] += 1
+    lines = ["| needed \\ ran | " + " | ".join(ROUTES) + " |", "|---|" + "---|" * len(ROUTES)]
+    for a in ROUTES:
+        lines.append(f"| {a} | " + " | ".join(str(table[a, b]) for b in ROUTES) + " |")
+    return "\n".join(lines)
+
+
+def _fmt(value, digits=2):
+    return "–" if value is None or (isinstance(value, float) and np.isnan(value)) else f"{value:.{digits}f}"
+
+
+def report(rows, errors):
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                            cwd=routing_corpus.ROOT).stdout.strip()
+    out = ["# Routing: what the default runs on each input", "",
+           f"Made by `python benchmarks/routing.py{' --errors' if errors else ''}` on "
+           f"{datetime.date.today().isoformat()} at commit {commit}. The corpus and the classes: "
+           "`benchmarks/routing_corpus.py`; the measure: `skelfilter/mesh/surface_roughness.py`; the "
+           "decision: `skelfilter/mesh/output_choice.py`.", ""]
+    for split in ("tuning", "held-aside"):
+        part = [r for r in rows if r["split"] == split]
+        if not part:
+            continue
+        right = sum(r["needs"] == r["ran"] for r in part)
+        out += [f"## {split}: {right} of {len(part)} routed as needed", "", confusion(part), ""]
+    out += ["## Every case", "",
+            "roughness: median residual of the normals (degrees), fine scale / over wider patches; "
+            "moved: largest vertex move over the diagonal (clean inputs); θ: the literature's mean face-normal "
+            "angle to the truth, in / out (degrees).", "",
+            "| case | kind | stored | split | needs | ran | roughness | faces | s | moved | θ in | θ out |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        out.append(f"| {r['name']} | {r['kind']} | {r['storage']} | {r['split']} | {r['needs']} | "
+                   f"{'**' + r['ran'] + '**' if r['ran'] != r['needs'] else r['ran']} | "
+                   f"{_fmt(r['fine'], 1)} / {_fmt(r['coarse'], 1)} | {r['faces']} | {r['seconds']:.1f} | "
+                   f"{_fmt(r.get('moved'), 4)} | {_fmt(r.get('theta_in'), 1)} | {_fmt(r.get('theta_out'), 1)} |")
+    return "\n".join(out) + "\n"
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", default=None, help="write the report here (markdown)")
+    parser.add_argument("--split", choices=("tuning", "held-aside", "all"), default="all")
+    parser.add_argument("--errors", action="store_true", help="also the error against the truth")
+    parser.add_argument("--case", action="append", help="only these cases")
+    args = parser.parse_args(argv)
+    names = args.case or [n for n, c in routing_corpus.CASES.items() if args.split in ("all", c.split)]
+    rows = []
+    for name in names:
+        row = run_case(name, args.errors)
+        rows.append(row)
+        print(f"{name:32s} needs {row['needs']:8s} ran {row['ran']:8s} roughness {_fmt(row['fine'], 1)}/"
+              f"{_fmt(row['coarse'], 1)}  {row['seconds']:.1f} s", flush=True)
+    text = report(rows, args.errors)
+    if args.out:
+        with open(args.out, "w") as f:
+            f.write(text)
+    else:
+        sys.stdout.write(text)
+
+
+if __name__ == "__main__":
+    main()
