@@ -18,6 +18,7 @@ the routing corpus (``benchmarks/routing_corpus.py``) as a stand-in for real sen
 
 import numpy as np
 import trimesh
+from range_scan import orthographic_rays
 from scipy import ndimage
 
 
@@ -47,25 +48,8 @@ def depth_scan(mesh, view=(0.4, -1.0, 0.7), pixels=120, waves=1.0, waves_px=2.5,
         The open scan in ``mesh``'s coordinates, and the same pixels at their true depths (same
         vertices and faces; ``process=False``).
     """
-    import open3d as o3d
-
     rng = np.random.default_rng(seed)
-    direction = np.asarray(view, dtype=np.float64)
-    direction /= np.linalg.norm(direction)
-    centre = mesh.bounding_sphere.primitive.center
-    radius = mesh.bounding_sphere.primitive.radius
-    u = np.cross(direction, [0.0, 0.0, 1.0] if abs(direction[2]) < 0.9 else [1.0, 0.0, 0.0])
-    u /= np.linalg.norm(u)
-    v = np.cross(direction, u)
-    s = np.linspace(-radius, radius, pixels)
-    spacing = s[1] - s[0]
-    a, b = np.meshgrid(s, s, indexing="ij")
-    origins = centre + direction * 2 * radius + a.reshape(-1, 1) * u + b.reshape(-1, 1) * v
-    rays = np.hstack([origins, np.broadcast_to(-direction, origins.shape)]).astype(np.float32)
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor(np.asarray(mesh.vertices, dtype=np.float32)),
-                        o3d.core.Tensor(np.asarray(mesh.faces, dtype=np.uint32)))
-    hit = scene.cast_rays(o3d.core.Tensor(rays))
+    direction, origins, spacing, hit = orthographic_rays(mesh, view, pixels)
     depth = hit["t_hit"].numpy().reshape(pixels, pixels).astype(np.float64) / spacing
     valid = np.isfinite(depth)
     # grazing views are lost

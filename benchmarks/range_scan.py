@@ -21,6 +21,31 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from skelfilter.io import mesh_files as io  # noqa: E402
 
 
+def orthographic_rays(mesh, view, pixels):
+    """Rays of an orthographic camera looking at ``mesh`` from direction ``view``, cast (open3d).
+
+    The image has ``pixels`` rays per side and covers the mesh's bounding sphere. Returns the unit
+    view direction, the rays' origins ``(pixels * pixels, 3)`` (row-major over the image's two axes),
+    the pixel spacing and open3d's cast result (``t_hit``, ``primitive_ids``, ``primitive_normals``).
+    """
+    import open3d as o3d
+
+    direction = np.asarray(view, dtype=np.float64)
+    direction /= np.linalg.norm(direction)
+    centre, radius = mesh.bounding_sphere.primitive.center, mesh.bounding_sphere.primitive.radius
+    u = np.cross(direction, [0.0, 0.0, 1.0] if abs(direction[2]) < 0.9 else [1.0, 0.0, 0.0])
+    u /= np.linalg.norm(u)
+    v = np.cross(direction, u)
+    s = np.linspace(-radius, radius, pixels)
+    a, b = np.meshgrid(s, s, indexing="ij")
+    origins = centre + direction * 2 * radius + a.reshape(-1, 1) * u + b.reshape(-1, 1) * v
+    rays = np.hstack([origins, np.broadcast_to(-direction, origins.shape)]).astype(np.float32)
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(o3d.core.Tensor(np.asarray(mesh.vertices, dtype=np.float32)),
+                        o3d.core.Tensor(np.asarray(mesh.faces, dtype=np.uint32)))
+    return direction, origins, s[1] - s[0], scene.cast_rays(o3d.core.Tensor(rays))
+
+
 def range_scan(mesh, view=(0.3, -1.0, 0.4), pixels=400, holes=6, noise=0.2, seed=1):
     """The part of ``mesh`` seen from direction ``view``, with ``holes`` holes and depth noise.
 
@@ -45,22 +70,10 @@ def range_scan(mesh, view=(0.3, -1.0, 0.4), pixels=400, holes=6, noise=0.2, seed
     import open3d as o3d
 
     rng = np.random.default_rng(seed)
-    direction = np.asarray(view, dtype=np.float64)
-    direction /= np.linalg.norm(direction)
-    centre, radius = mesh.bounding_sphere.primitive.center, mesh.bounding_sphere.primitive.radius
-    u = np.cross(direction, [0.0, 0.0, 1.0] if abs(direction[2]) < 0.9 else [1.0, 0.0, 0.0])
-    u /= np.linalg.norm(u)
-    v = np.cross(direction, u)
-    s = np.linspace(-radius, radius, pixels)
-    a, b = np.meshgrid(s, s)
-    origins = centre + direction * 2 * radius + a.reshape(-1, 1) * u + b.reshape(-1, 1) * v
-    rays = np.hstack([origins, np.broadcast_to(-direction, origins.shape)]).astype(np.float32)
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor(np.asarray(mesh.vertices, dtype=np.float32)),
-                        o3d.core.Tensor(np.asarray(mesh.faces, dtype=np.uint32)))
-    hit = scene.cast_rays(o3d.core.Tensor(rays))["primitive_ids"].numpy()
+    direction, _, _, hits = orthographic_rays(mesh, view, pixels)
+    hit = hits["primitive_ids"].numpy()
     seen = np.zeros(len(mesh.faces), dtype=bool)
-    seen[hit[hit != scene.INVALID_ID]] = True
+    seen[hit[hit != o3d.t.geometry.RaycastingScene.INVALID_ID]] = True
     seen &= mesh.face_normals @ direction > 0.1  # grazing faces are lost too
     scan = mesh.submesh([np.flatnonzero(seen)], append=True)
     scan = trimesh.Trimesh(scan.vertices, scan.faces, process=True)
