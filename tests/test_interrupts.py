@@ -10,6 +10,7 @@ import sys
 import tempfile
 import time
 
+import numpy as np
 import pytest
 import trimesh
 
@@ -20,7 +21,7 @@ HARNESS = harness.__file__
 
 # every step of a run, with the output mesh that makes it run
 STEPS = [(step, "auto") for step in (
-    "voxelize", "fine noise", "solid check", "foreground/distance transform", "foreground/skeleton",
+    "voxelize", "solid check", "foreground/distance transform", "foreground/skeleton",
     "foreground/importance", "foreground/derivative measure", "foreground/pruning", "foreground/EDT filter",
     "foreground/reconstruction", "foreground/noise estimate", "foreground/features kept", "specks", "needles")]
 STEPS += [("input surface", "closed"), ("marching cubes", "closed"), ("vertices moved", "input"),
@@ -80,6 +81,23 @@ def test_an_interrupt_in_any_step_ends_cleanly(noisy_file, tmp_path, step, outpu
         assert (returncode, errors) == (code, [f"skelfilter: {word}\n".strip()]), (step, errors)
         assert not out.exists() and not os.listdir(tmp_path)
     assert digest(noisy_file) == before
+
+
+def test_an_interrupt_while_the_roughness_is_measured_ends_cleanly(tmp_path):
+    """A mesh not made of voxels, no flags: the route is measured (the roughness step) first."""
+    path = tmp_path / "in" / "sphere.ply"
+    path.parent.mkdir()
+    sphere = trimesh.creation.icosphere(4)
+    offset = np.random.default_rng(0).normal(0.0, 0.01, len(sphere.vertices))
+    trimesh.Trimesh(sphere.vertices + sphere.vertex_normals * offset[:, None], sphere.faces).export(path)
+    before = digest(path)
+    out = tmp_path / "out" / "out.ply"
+    out.parent.mkdir()
+    proc = start(["denoise", path, out], "pause", "roughness")
+    lines = wait_for(proc, "paused in roughness")
+    proc.send_signal(signal.SIGINT)
+    assert finish(proc, lines) == (130, ["skelfilter: interrupted"])
+    assert not out.exists() and not os.listdir(out.parent) and digest(path) == before
 
 
 def _children(pid):

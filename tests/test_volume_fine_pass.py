@@ -89,7 +89,7 @@ def test_a_clean_volume_with_specks_and_spikes_of_its_own_passes_through():
 
 
 def test_fine_pass_takes_on_off_preset_and_the_earlier_booleans():
-    assert DenoiseParams().fine_pass == "on"
+    assert DenoiseParams().fine_pass == "auto"
     assert DenoiseParams(preset="thesis").fine_pass == "off"
     assert DenoiseParams(fine_pass=False).fine_pass == "off"
     assert DenoiseParams(preset="thesis", fine_pass=True).fine_pass == "on"

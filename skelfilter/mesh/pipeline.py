@@ -99,7 +99,8 @@ def _denoise_unit(mesh, params, progress):
     given = voxel_fields_given(params)
     asked = [name for name in given if name != "resolution"]  # the resolution also tells solids from surfaces
     if params.resolution is not None:  # a grid that cannot be is refused whatever runs
-        _fits(mesh, params, params.resolution, refuse=True)
+        check_grid_fits(_grid(mesh, params.resolution, params.padding_voxels).shape, padding=params.padding_voxels,
+                        padding_from=padding_from(params), faces=len(mesh.faces))
     skipped = None  # why the voxel stage does not run
     roughness = None  # a mesh not made of voxels: its output_choice.Roughness
     lattice = voxelize.voxel_lattice(mesh)
