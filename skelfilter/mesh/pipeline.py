@@ -169,7 +169,12 @@ def _denoise_unit(mesh, params, progress):
             progress.note(f"noise at the skeleton's scale on {100 * found.coverage:.0f} % of the surface (from "
                           f"{100 * output_choice.SKELETON_COVERAGE:.0f} % on a mesh not made of voxels): not pruned")
         output = "closed" if pruned else "input"
-        why = "noise at the skeleton scale removed" if output == "closed" else "no noise at the skeleton scale"
+        if output == "input":
+            why = "no noise at the skeleton scale"
+        elif found is not None and not found.found:
+            why = f"pruned at the threshold given, t = {params.threshold_voxels:g} voxels, though no noise was found"
+        else:
+            why = "noise at the skeleton scale removed"
         progress.note(f"output: {'a new closed mesh' if output == 'closed' else 'the input mesh'} ({why})")
     if output == "closed":
         if params.unchanged_surface == "input":
