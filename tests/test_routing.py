@@ -1,0 +1,118 @@
+"""What the default runs on an input: the surface roughness against brute force, and the routes it
+decides (clean meshes back as they were, STL like OBJ, noisy meshes smoothed, bumps on any
+tessellation to the voxel stage, flags obeyed, --close refused on an open surface)."""
+
+import os
+
+import numpy as np
+import pytest
+import trimesh
+
+from skelfilter.errors import InputError
+from skelfilter.evaluation import metrics
+from skelfilter.io import mesh_files
+from skelfilter.mesh import output_choice, surface_roughness
+from skelfilter.mesh import pipeline as mesh_pipeline
+from skelfilter.runtime.progress import Progress
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+LITERATURE = os.path.join(ROOT, "benchmarks", "data", "literature")
+
+
+def _noisy(mesh, level, seed=0):
+    rng = np.random.default_rng(seed)
+    offset = rng.normal(0.0, level * mesh.edges_unique_length.mean(), len(mesh.vertices))
+    return trimesh.Trimesh(mesh.vertices + mesh.vertex_normals * offset[:, None], mesh.faces, process=False)
+
+
+def _as_stl(mesh, folder):
+    path = os.path.join(folder, "mesh.stl")
+    mesh.export(path)
+    return mesh_files.load_mesh(path)
+
+
+def test_residual_angles_against_a_least_squares_fit_per_sample():
+    rng = np.random.default_rng(1)
+    points = rng.random((60, 3))
+    normals = rng.normal(size=(60, 3))
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    got = surface_roughness.residual_angles(points, normals, neighbours=8)
+    for i in range(len(points)):
+        near = np.argsort(np.linalg.norm(points - points[i], axis=1), kind="stable")[:9]
+        offsets = points[near] - points[i]
+        design = np.hstack([np.ones((9, 1)), offsets / np.linalg.norm(offsets, axis=1).max()])
+        fit = design @ np.linalg.lstsq(design, normals[near], rcond=None)[0]
+        rms = np.sqrt(np.mean(np.sum((normals[near] - fit) ** 2, axis=1)))
+        assert got[i] == pytest.approx(np.degrees(2 * np.arcsin(rms / 2)), abs=1e-3)
+
+
+def test_samples_lie_on_the_faces_uniformly_by_area():
+    # two triangles, the second with three times the area
+    vertices = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [3, 0, 1], [0, 1, 1]], dtype=float)
+    faces = np.array([[0, 1, 2], [3, 4, 5]])
+    points, normals = surface_roughness.surface_samples(vertices, faces, count=20_000)
+    upper = points[:, 2] == 1
+    assert upper.mean() == pytest.approx(0.75, abs=0.01)
+    assert np.all(points[~upper, 2] == 0) and np.all(points[~upper].sum(axis=1) <= 1 + 1e-12)
+    assert np.allclose(normals, [0, 0, 1])
+
+
+def test_roughness_sees_noise_not_curvature_nor_coarseness():
+    for clean in (trimesh.creation.icosphere(1), trimesh.creation.icosphere(5), trimesh.creation.box(),
+                  trimesh.creation.cylinder(0.3, 1.0, sections=8), trimesh.creation.torus(1.0, 0.3)):
+        assert output_choice.measure(clean).fine < output_choice.CLEAN_ROUGHNESS
+    noisy = output_choice.measure(_noisy(trimesh.creation.icosphere(5), 0.2))
+    assert noisy.noisy and not noisy.skeleton_scale
+
+
+def test_a_clean_coarse_mesh_and_its_stl_come_back_as_they_were(tmp_path):
+    mesh = trimesh.creation.icosphere(1)  # 80 faces, 21 degrees between neighbours
+    for given in (mesh, _as_stl(mesh, tmp_path)):
+        progress = Progress(enabled=False)
+        out = mesh_pipeline.denoise_mesh(given, progress=progress)
+        assert np.array_equal(out.vertices, given.vertices) and np.array_equal(out.faces, given.faces)
+        assert any("comes back as it was" in n for n in progress.notes)
+
+
+def test_fine_pass_on_smooths_a_clean_mesh_and_off_leaves_a_noisy_one():
+    clean = trimesh.creation.icosphere(3)
+    out = mesh_pipeline.denoise_mesh(clean, fine_pass="on")
+    assert not np.array_equal(out.vertices, clean.vertices)
+    noisy = _noisy(clean, 0.3)
+    assert np.array_equal(mesh_pipeline.denoise_mesh(noisy, fine_pass="off").vertices, noisy.vertices)
+
+
+def test_an_stl_file_is_denoised_like_the_obj(tmp_path):
+    noisy = mesh_files.load_mesh(os.path.join(LITERATURE, "Fandisk0.3", "noisy.obj"))
+    clean = mesh_files.load_mesh(os.path.join(LITERATURE, "Fandisk0.3", "clean.obj"))
+    stl = _as_stl(noisy, tmp_path)
+    assert len(stl.vertices) == 3 * len(stl.faces)  # every triangle's corners apart
+    from_obj, from_stl = mesh_pipeline.denoise_mesh(noisy), mesh_pipeline.denoise_mesh(stl)
+    # the STL's triangles in the OBJ's order: score them on the OBJ's vertex indices
+    corners = np.asarray(from_stl.vertices)[np.asarray(from_stl.faces).reshape(-1)]
+    indexed = np.zeros_like(np.asarray(noisy.vertices))
+    indexed[np.asarray(noisy.faces).reshape(-1)] = corners
+    theta_obj = metrics.literature_errors(from_obj, clean).theta
+    theta_stl = metrics.literature_errors(trimesh.Trimesh(indexed, noisy.faces, process=False), clean).theta
+    assert theta_obj < 3.5 and theta_stl == pytest.approx(theta_obj, rel=0.02)  # measured 2.93 both
+
+
+def test_bumps_on_a_decimated_mesh_go_to_the_voxel_stage():
+    from skelfilter.evaluation.comparison.run import decimate
+
+    # the thesis' stripes at 96 voxels (at 64 the voxel stage, re-voxelizing at 96, finds them on 6 %)
+    marching, _, _ = mesh_pipeline.noisy_mesh(trimesh.creation.box((1.0, 0.8, 0.6)), resolution=96, seed=1)
+    noisy = decimate(marching, len(marching.faces) // 3)
+    roughness = output_choice.measure(noisy)
+    assert roughness.skeleton_scale
+    progress = Progress(enabled=False)
+    out = mesh_pipeline.denoise_mesh(noisy, progress=progress)
+    assert any("noise at the skeleton scale removed" in n for n in progress.notes)
+    assert len(out.faces) != len(noisy.faces)  # a new closed mesh
+
+
+def test_close_on_an_open_surface_is_refused():
+    sphere = trimesh.creation.icosphere(4)
+    cap = sphere.submesh([np.flatnonzero(sphere.triangles_center[:, 2] > 0.2)], append=True)
+    with pytest.raises(InputError, match="open surface"):
+        mesh_pipeline.denoise_mesh(cap, output_mesh="closed")
