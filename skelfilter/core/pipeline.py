@@ -117,8 +117,10 @@ def keep_features(stage_set, stage, params, side, progress):
     """
     with progress.step("noise estimate"):
         estimate = noise_estimate.estimate_noise(stage_set, stage.mask, params.resolution, side)
-    progress.note(f"noise: {estimate.describe()}")
     height = _restored_height(params, estimate)
+    given = f"; removed parts standing over {height:g} voxels (the noise height given) come back" \
+        if params.noise_height is not None else ""
+    progress.note(f"noise: {estimate.describe()}{given}")
     with progress.step("features kept"):
         if height is None:
             restored = stage_set & ~stage.mask
