@@ -117,6 +117,8 @@ def _denoise_unit(mesh, params, progress):
             return None, np.array(mesh.vertices, dtype=np.float64), result, grid
         if not roughness.skeleton_scale:
             skipped = f"{roughness.describe()}: the input mesh comes back, smoothed by the fine pass"
+        else:
+            progress.note(f"{roughness.describe()}: the voxel stage measures it")
     if params.resolution is None and skipped is not None:  # only the frame of the (empty) result
         params = params.with_(resolution=voxelize.auto_resolution(mesh))
     elif params.resolution is None:

@@ -118,10 +118,12 @@ def folded_faces(vertices, faces, reference_normals):
 
 def boundary_vertices(faces, n_vertices):
     """Vertices on an edge used by a single face (the rim of an open surface or of a hole)."""
-    edges = np.sort(face_edges(faces), axis=1)
-    unique, count = np.unique(edges, axis=0, return_counts=True)
+    edges = np.sort(face_edges(np.asarray(faces, dtype=np.int64)), axis=1)
+    codes, count = np.unique(edges[:, 0] * n_vertices + edges[:, 1], return_counts=True)
+    single = codes[count == 1]
     out = np.zeros(n_vertices, dtype=bool)
-    out[unique[count == 1].reshape(-1)] = True
+    out[single // n_vertices] = True
+    out[single % n_vertices] = True
     return out
 
 

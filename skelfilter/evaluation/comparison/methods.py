@@ -17,6 +17,7 @@ from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.meshlab import scripts
 from skelfilter.runtime.child import run_child
 from skelfilter.runtime.extras import need
+from skelfilter.runtime.progress import Progress
 from skelfilter.runtime.signals import temporary_folder
 
 
@@ -25,19 +26,21 @@ class Outcome:
     mesh: trimesh.Trimesh | None
     seconds: float
     error: str | None = None
+    route: str | None = None  # skelfilter: what it ran and why, as it tells a user
 
 
 def run_method(method, noisy, clean, config):
     """Apply ``method`` (a :class:`~skelfilter.evaluation.comparison.config.Method`) to ``noisy``; never raises on a
     failure of the method itself."""
     start = time.perf_counter()
+    progress = Progress(enabled=False)
     try:
         if method.kind == "noisy":
             mesh = noisy
         elif method.kind == "clean":
             mesh = clean
         elif method.kind == "skelfilter":
-            mesh = mesh_pipeline.denoise_mesh(noisy, config.denoise_params(method))
+            mesh = mesh_pipeline.denoise_mesh(noisy, config.denoise_params(method), progress)
         elif method.kind == "meshlab":
             mesh = scripts.run_filter_script(noisy, method.script, timeout=config.timeout)
         elif method.kind == "meshlib":
@@ -46,7 +49,8 @@ def run_method(method, noisy, clean, config):
             raise ValueError(f"unknown method kind {method.kind!r}")
     except (SkelfilterError, MemoryError) as exc:
         return Outcome(None, time.perf_counter() - start, str(exc) or type(exc).__name__)
-    return Outcome(mesh, time.perf_counter() - start)
+    route = "; ".join(progress.notes) if method.kind == "skelfilter" else None
+    return Outcome(mesh, time.perf_counter() - start, route=route)
 
 
 def _meshlib_child(workdir):

@@ -170,6 +170,7 @@ def _markdown(results, sweep_png):
         rows = [[name] + ([f"failed: {error}"] + [""] * (len(keys) - 1) if error else
                           [f"**{t}**" if b else t for t, b in cells]) for name, cells, error in table_rows(case, keys)]
         out.append(_md_table(["method"] + [METRICS[k][0] for k in keys], rows) + "\n")
+        out.extend(f"- what {name} ran: {route}\n" for name, route in _routes(case))
     if sweep_png:
         out.append(f"## Threshold sweep ({results['sweep']['case']})\n\n![sweep]({sweep_png})\n")
         out.append(_md_table(["t", "ε̂", "bumps removed", "dents filled", "clean lost", "time (s)"],
@@ -183,6 +184,11 @@ def _markdown(results, sweep_png):
                                                              for c in results["cases"]]) + "\n")
     out.append(_md_table(["package", "version"], sorted(results["versions"].items())) + "\n")
     return "\n".join(out)
+
+
+def _routes(case):
+    """(method, what it ran and why) of the skelfilter methods of a case."""
+    return [(e["name"], e["route"]) for e in case["methods"] if e.get("route")]
 
 
 def _facts_text(case):
@@ -272,6 +278,7 @@ def _html(results, sweep_png):
         body.append(f"<h3>{_h(case['name'])}</h3><p class='note'>{_h(_noise_text(case))}; noisy mesh: "
                     f"{_h(_facts_text(case))}</p>")
         body.append(_html_table(["method"] + [METRICS[k][0] for k in keys], _metric_rows(case, keys)))
+        body.extend(f"<p class='note'>what {_h(name)} ran: {_h(route)}</p>" for name, route in _routes(case))
     if sweep_png:
         body.append(f"<h2>Threshold sweep ({_h(results['sweep']['case'])})</h2>"
                     f"<p><img src='{sweep_png}' alt='error against t'></p>")

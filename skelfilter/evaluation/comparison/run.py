@@ -120,6 +120,8 @@ def run_case(case, config, out_dir, say, pool):
         outcome = futures[method.name].result() if method.name in futures else \
             run_method(method, noisy, clean, config)
         entry = {"name": method.name, "kind": method.kind, "seconds": outcome.seconds, "error": outcome.error}
+        if outcome.route is not None:
+            entry["route"] = outcome.route
         if outcome.error is None:
             entry["metrics"] = metrics.mesh_metrics(outcome.mesh, clean, grid, noise)
             entry["error"] = entry["metrics"].get("error")
