@@ -135,6 +135,7 @@ def test_smoke_pictures_show_meshes(smoke):
                 assert 0.03 < covered < 0.97 and img.std() > 10, (case["name"], m["name"], kind, covered)
     md = open(os.path.join(out, "report.md")).read()
     assert "| cube | skelfilter |" in md and "![sweep](sweep.png)" in md and "**" in md
+    assert "- what skelfilter ran: " in md  # the route, as the CLI tells it
 
 
 def test_report_opens_in_headless_chromium(smoke, tmp_path):
