@@ -4,6 +4,7 @@ back to a mesh: a new closed one by marching cubes, or the input's own with its 
 import warnings
 
 import numpy as np
+import trimesh
 
 from skelfilter.core import noise, surface_field
 from skelfilter.core.pipeline import DenoiseResult, denoise_padded, padding_from, passes_through, resolve_params
@@ -101,33 +102,20 @@ def _denoise_unit(mesh, params, progress):
     if params.resolution is not None:  # a grid that cannot be is refused whatever runs
         check_grid_fits(_grid(mesh, params.resolution, params.padding_voxels).shape, padding=params.padding_voxels,
                         padding_from=padding_from(params), faces=len(mesh.faces))
-    skipped = None  # why the voxel stage does not run
-    roughness = None  # a mesh not made of voxels: its output_choice.Roughness
     lattice = voxelize.voxel_lattice(mesh)
-    if params.output_mesh == "auto" and not asked and lattice is None:
+    roughness = None  # a mesh not made of voxels that may come back as itself: its output_choice.Roughness
+    if lattice is None and params.output_mesh in ("auto", "input"):
         with progress.step("roughness"):
             roughness = output_choice.measure(mesh)
-        if not roughness.noisy and params.fine_pass != "on":
-            unused = f" (resolution {params.resolution} is not used)" if given else ""
-            progress.note(f"{roughness.describe()}: the mesh comes back as it was{unused} (--fine-pass on smooths "
-                          "it anyway, --output-mesh closed runs the voxel stage)")
-            resolution = params.resolution or voxelize.auto_resolution(mesh)
-            grid = _grid(mesh, resolution, params.with_(resolution=resolution).padding_voxels)
-            result = DenoiseResult(mask=None, field=None, timings=progress.timings)
-            return None, np.array(mesh.vertices, dtype=np.float64), result, grid
-        if not roughness.skeleton_scale:
-            skipped = f"{roughness.describe()}: the input mesh comes back, smoothed by the fine pass"
-        else:
-            progress.note(f"{roughness.describe()}: the voxel stage measures it")
-    if params.resolution is None and skipped is not None:  # only the frame of the (empty) result
-        params = params.with_(resolution=voxelize.auto_resolution(mesh))
-    elif params.resolution is None:
-        resolution, lattice = _fitting_resolution(mesh, params, lattice)
-        params = params.with_(resolution=resolution)
-        progress.note(f"resolution {params.resolution} voxels " + (
-            "(the voxel grid the mesh was made on)" if lattice else "(from the mesh's mean edge length)"))
-    else:
-        lattice = None  # the resolution asked for
+    routed = params.output_mesh == "auto" and not asked and roughness is not None
+    if routed and not roughness.noisy and params.fine_pass != "on":
+        return _as_it_was(mesh, params, roughness, given, progress)
+    skipped = None  # why the voxel stage does not run
+    if routed and not roughness.skeleton_scale:
+        skipped = f"{roughness.describe()}: the input mesh comes back, smoothed by the fine pass"
+    elif routed:
+        progress.note(f"{roughness.describe()}: the voxel stage measures it")
+    params, lattice = _resolved(mesh, params, lattice, skipped is not None, progress)
     output = params.output_mesh
     occupancy = None
     if skipped is None:
@@ -189,6 +177,31 @@ def _denoise_unit(mesh, params, progress):
     return None, vertices, result, grid
 
 
+def _as_it_was(mesh, params, roughness, given, progress):
+    """`_denoise_unit`'s answer for a clean mesh: its own vertices, no voxel stage."""
+    unused = f" (resolution {params.resolution} is not used)" if given else ""
+    progress.note(f"{roughness.describe()}: the mesh comes back as it was{unused} (--fine-pass on smooths it "
+                  "anyway, --output-mesh closed runs the voxel stage)")
+    resolution = params.resolution or voxelize.auto_resolution(mesh)
+    grid = _grid(mesh, resolution, params.with_(resolution=resolution).padding_voxels)
+    return None, np.array(mesh.vertices, dtype=np.float64), DenoiseResult(None, None, timings=progress.timings), grid
+
+
+def _resolved(mesh, params, lattice, skipped, progress):
+    """``params`` with its resolution set, and the voxel ``lattice`` to lay the grid on (or None).
+
+    Unset, the resolution fits the mesh (`_fitting_resolution`), or, where the voxel stage is
+    ``skipped``, is `voxelize.auto_resolution` (the frame of the empty result only)."""
+    if params.resolution is not None:
+        return params, None
+    if skipped:
+        return params.with_(resolution=voxelize.auto_resolution(mesh)), None
+    resolution, lattice = _fitting_resolution(mesh, params, lattice)
+    progress.note(f"resolution {resolution} voxels " + (
+        "(the voxel grid the mesh was made on)" if lattice else "(from the mesh's mean edge length)"))
+    return params.with_(resolution=resolution), lattice
+
+
 def _attributes(mesh):
     """The per-vertex or per-face attributes of ``mesh`` that a new mesh cannot carry, in words."""
     kind = getattr(mesh.visual, "kind", None)
@@ -199,9 +212,8 @@ def _kept_vertices(mesh, voxels, params, grid, progress, roughness=None):
     """The input mesh's vertices, moved: onto the denoised surface where ``voxels`` (the
     DenoiseResult and the input occupancy, or None) says the shape changed, then by the fine pass.
 
-    The fine pass runs with ``fine_pass`` on; with ``auto``, where vertices moved or the mesh is noisy:
-    by its ``roughness`` (`output_choice.Roughness`) where measured, else (a voxel mesh) by its
-    `output_choice.fine_noise`.
+    The fine pass runs with ``fine_pass`` on; with ``auto``, where vertices moved or the mesh is
+    `_noisy` (``roughness``: its `output_choice.Roughness`, or None for a voxel mesh).
     """
     # Vertices split along UV seams or by the file format move as one.
     welded, inverse = np.unique(np.asarray(mesh.vertices, dtype=np.float64), axis=0, return_inverse=True)
@@ -214,17 +226,9 @@ def _kept_vertices(mesh, voxels, params, grid, progress, roughness=None):
             vertices, moved = vertex_projection.move_input_vertices(
                 welded, faces, result.mask, occupancy, result.field, surface_field.mask_field(occupancy), grid,
                 max_move=params.threshold_voxels / 2)
-    smoothing = params.fine_pass != "off"
-    least_level = 0.0
-    if roughness is not None and roughness.noisy:
-        least_level = output_choice.LEAST_FINE_LEVEL
-    elif params.fine_pass == "auto" and not moved.any() and roughness is None:
-        with progress.step("fine noise"):
-            fine = output_choice.fine_noise(mesh)
-        if fine < output_choice.CLEAN_FINE_NOISE:
-            smoothing = False
-            progress.note(f"fine noise {fine:.3f} (under {output_choice.CLEAN_FINE_NOISE:g}): no fine pass, "
-                          "the mesh comes back as it was (--fine-pass on smooths it anyway)")
+    least_level = output_choice.LEAST_FINE_LEVEL if roughness is not None and roughness.noisy else 0.0
+    smoothing = params.fine_pass == "on" or (
+        params.fine_pass == "auto" and (moved.any() or _noisy(welded, faces, roughness, progress)))
     if smoothing:
         with progress.step("fine pass"):
             # The rim of an open surface stays where it was (measured on Nicolo0.2: both scores
@@ -242,6 +246,19 @@ def _kept_vertices(mesh, voxels, params, grid, progress, roughness=None):
         if folded:
             progress.note(f"{folded} faces stay folded (turned against the surface or without area)")
     return vertices[inverse]
+
+
+def _noisy(vertices, faces, roughness, progress):
+    """Whether a mesh is noisy: by its ``roughness`` where measured, else (a voxel mesh) by its
+    `output_choice.fine_noise` (told through ``progress`` where it is clean)."""
+    if roughness is not None:
+        return roughness.noisy
+    with progress.step("fine noise"):
+        fine = output_choice.fine_noise(trimesh.Trimesh(vertices, faces, process=False))
+    if fine < output_choice.CLEAN_FINE_NOISE:
+        progress.note(f"fine noise {fine:.3f} (under {output_choice.CLEAN_FINE_NOISE:g}): no fine pass, "
+                      "the mesh comes back as it was (--fine-pass on smooths it anyway)")
+    return fine >= output_choice.CLEAN_FINE_NOISE
 
 
 def _fitting_resolution(mesh, params, lattice):
