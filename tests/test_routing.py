@@ -116,3 +116,39 @@ def test_close_on_an_open_surface_is_refused():
     cap = sphere.submesh([np.flatnonzero(sphere.triangles_center[:, 2] > 0.2)], append=True)
     with pytest.raises(InputError, match="open surface"):
         mesh_pipeline.denoise_mesh(cap, output_mesh="closed")
+
+
+def test_noise_correlation_against_a_loop_over_edges():
+    from skelfilter.mesh.normal_filtering import noise_correlation
+
+    mesh = _noisy(trimesh.creation.icosphere(2), 0.3)
+    vertices, faces = np.asarray(mesh.vertices), np.asarray(mesh.faces)
+    normals = np.zeros_like(vertices)
+    neighbours = [set() for _ in vertices]
+    for f in faces:
+        n = np.cross(vertices[f[1]] - vertices[f[0]], vertices[f[2]] - vertices[f[0]])
+        for k in range(3):
+            normals[f[k]] += n
+            neighbours[f[k]] |= {f[(k + 1) % 3], f[(k + 2) % 3]}
+    offset = np.array([np.mean(vertices[sorted(nb)], axis=0) - v for v, nb in zip(vertices, neighbours)])
+    offset = np.einsum("ij,ij->i", offset, normals / np.linalg.norm(normals, axis=1, keepdims=True))
+    offset -= offset.mean()
+    edges = {tuple(sorted((a, b))) for a, nb in enumerate(neighbours) for b in nb}
+    expected = np.mean([offset[a] * offset[b] for a, b in edges]) / np.mean(offset**2)
+    assert noise_correlation(vertices, faces) == pytest.approx(expected)
+    assert expected < -0.05  # independent vertex noise: neighbours lean the other way
+
+
+def test_a_depth_cameras_scan_is_smoothed():
+    import sys
+
+    sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
+    from depth_scan import depth_scan
+
+    scan, truth = depth_scan(trimesh.creation.box((1.0, 0.7, 0.5)), seed=3)
+    from skelfilter.mesh.normal_filtering import noise_correlation
+
+    assert noise_correlation(scan.vertices, scan.faces) > -0.04  # waves and terraces: neighbours move alike
+    before = metrics.literature_errors(scan, truth).theta
+    after = metrics.literature_errors(mesh_pipeline.denoise_mesh(scan), truth).theta
+    assert after < 0.75 * before

@@ -14,7 +14,7 @@ import trimesh
 
 from skelfilter.io import mesh_files
 from skelfilter.io.samples import sample_path
-from skelfilter.mesh import guided_filtering, normal_filtering
+from skelfilter.mesh import guided_filtering, normal_filtering, voxelize
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.params import DenoiseParams, NoiseParams
 from skelfilter.runtime import signals
@@ -39,10 +39,10 @@ def compile_kernels():
                     {"edt_filter": "least-squares", "velocity": "importance-gradient"},
                     {"skeleton": "usm", "velocity": "unified"}):
         mesh_pipeline.denoise_mesh(noisy, DenoiseParams(resolution=RESOLUTION, preset="thesis", **variant))
-    # An open mesh: the voxelization's hole handling.
+    # An open mesh: the voxelization's hole handling (a new closed mesh of it is refused).
     half = trimesh.Trimesh(clean.vertices, clean.faces[clean.triangles_center[:, 2] < clean.centroid[2]],
                            process=False)
-    mesh_pipeline.denoise_mesh(half, DenoiseParams(resolution=RESOLUTION, output_mesh="closed"))
+    voxelize.voxelize(half, RESOLUTION)
     # The guided normal filter, which the fine pass runs only on piecewise-flat noisy meshes.
     normals, areas, centroids = normal_filtering.face_geometry(clean.vertices, clean.faces)
     guided_filtering.guided_normals(normals, areas, centroids,

@@ -189,3 +189,30 @@ def noise_level(normals, pairs):
     smallest = np.full(len(normals), np.inf)  # faces without pairs (outside a subset) stay infinite
     np.minimum.at(smallest, i, np.linalg.norm(normals[i] - normals[j], axis=1))
     return float(np.median(smallest[np.isfinite(smallest)]))
+
+
+def noise_correlation(vertices, faces):
+    """How alike neighbouring vertices' offsets from their neighbours are (Moran's I, in [-1, 1]).
+
+    Each vertex's offset is its umbrella vector (the mean of its neighbours minus itself) along its
+    normal (the area-weighted mean of its faces' normals); the measure is the mean product of the two
+    offsets over the mesh's edges, over their variance. Noise that is independent from vertex to vertex
+    (Gaussian vertex noise, spikes) makes a vertex's neighbours lean the other way: below 0 (-0.07 to
+    -0.22 on the routing corpus); a depth camera's waves and terraces move neighbours alike (-0.02 to
+    0.13).
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces, dtype=np.int64)
+    corners = vertices[faces]
+    weighted = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])  # twice the area
+    normals = np.zeros_like(vertices)
+    for axis in range(3):
+        normals[:, axis] = np.bincount(faces.reshape(-1), weights=np.repeat(weighted[:, axis], 3),
+                                       minlength=len(vertices))
+    offset = np.einsum("ij,ij->i", vertex_adjacency(faces, len(vertices)) @ vertices - vertices, normalize(normals))
+    offset -= offset.mean()
+    variance = float(np.mean(offset**2))
+    if not variance > 0:
+        return 0.0
+    edges = np.unique(np.sort(face_edges(faces), axis=1), axis=0)
+    return float(np.mean(offset[edges[:, 0]] * offset[edges[:, 1]]) / variance)
