@@ -54,6 +54,13 @@ SKELETON_ROUGHNESS = 14.0
 # not made of voxels to be pruned: the thesis' bumps cover 0.11-0.54 of it, vertex noise run through the
 # voxel stage at most 0.09 (spikes on the bunny; fandisk at 0.7 edge lengths 0.08).
 SKELETON_COVERAGE = 0.10
+# The resolution (voxels along the longest side) of the voxel stage on a mesh sent there by its roughness,
+# unless given: the one the default's voxel-stage parameters were chosen at (benchmarks/quality.py: t is
+# 30 voxels, peaks count from 3). From the mesh's edge length instead (2 voxels an edge), the decimated
+# and remeshed bump meshes of the routing corpus (tuning) got 96-248 voxels and a mean face-normal angle
+# to the truth of 32.3/41.9/42.3/48.3/40.6 degrees (cube, fandisk, bunny, airplane decimated; fandisk
+# remeshed) against 22.9/32.1/41.0/50.2/30.7 at 160.
+SKELETON_RESOLUTION = 160
 # The fine pass on a noisy mesh smooths at least as at this `normal_filtering.noise_level` (the least
 # the literature's noisy pairs measure is 0.115): the noise level of meshes whose faces come in flat
 # pairs (depth cameras' terraces, quads split in two) reads near 0 though they carry noise.

@@ -115,7 +115,8 @@ def _denoise_unit(mesh, params, progress):
         skipped = f"{roughness.describe()}: the input mesh comes back, smoothed by the fine pass"
     elif routed:
         progress.note(f"{roughness.describe()}: the voxel stage measures it")
-    params, lattice = _resolved(mesh, params, lattice, skipped is not None, progress)
+    preferred = output_choice.SKELETON_RESOLUTION if routed and roughness.skeleton_scale else None
+    params, lattice = _resolved(mesh, params, lattice, skipped is not None, progress, preferred)
     output = params.output_mesh
     occupancy = None
     if skipped is None:
@@ -187,18 +188,20 @@ def _as_it_was(mesh, params, roughness, given, progress):
     return None, np.array(mesh.vertices, dtype=np.float64), DenoiseResult(None, None, timings=progress.timings), grid
 
 
-def _resolved(mesh, params, lattice, skipped, progress):
+def _resolved(mesh, params, lattice, skipped, progress, preferred=None):
     """``params`` with its resolution set, and the voxel ``lattice`` to lay the grid on (or None).
 
-    Unset, the resolution fits the mesh (`_fitting_resolution`), or, where the voxel stage is
-    ``skipped``, is `voxelize.auto_resolution` (the frame of the empty result only)."""
+    Unset, the resolution fits the mesh (`_fitting_resolution`, from ``preferred`` where given), or,
+    where the voxel stage is ``skipped``, is `voxelize.auto_resolution` (the frame of the empty result
+    only)."""
     if params.resolution is not None:
         return params, None
     if skipped:
         return params.with_(resolution=voxelize.auto_resolution(mesh)), None
-    resolution, lattice = _fitting_resolution(mesh, params, lattice)
-    progress.note(f"resolution {resolution} voxels " + (
-        "(the voxel grid the mesh was made on)" if lattice else "(from the mesh's mean edge length)"))
+    resolution, lattice = _fitting_resolution(mesh, params, lattice, preferred)
+    why = ("the voxel grid the mesh was made on" if lattice else
+           "the voxel stage's own" if preferred else "from the mesh's mean edge length")
+    progress.note(f"resolution {resolution} voxels ({why})")
     return params.with_(resolution=resolution), lattice
 
 
@@ -261,21 +264,21 @@ def _noisy(vertices, faces, roughness, progress):
     return fine >= output_choice.CLEAN_FINE_NOISE
 
 
-def _fitting_resolution(mesh, params, lattice):
+def _fitting_resolution(mesh, params, lattice, preferred=None):
     """The resolution for ``mesh`` and the voxel ``lattice`` it was made on (`voxelize.voxel_lattice`)
     to lay its grid on, or None.
 
     A voxel mesh (`voxelize.voxel_lattice`: marching cubes of a volume) is denoised on the grid it
     was made on, up to `voxelize.AUTO_RESOLUTION_RANGE`'s top: its noise is made of those voxels,
     and on that grid the voxelization gives them back; a finer grid costs time and finds nothing
-    more. Otherwise `voxelize.auto_resolution`. Either is lowered until the grid fits in memory
-    (at least 16), and the lattice is then not used.
+    more. Otherwise ``preferred``, or `voxelize.auto_resolution`. Either is lowered until the grid
+    fits in memory (at least 16), and the lattice is then not used.
     """
     if lattice is not None:
         resolution = int(round(float(np.ptp(np.asarray(mesh.bounds), axis=0).max()) / lattice[0]))
         if 16 <= resolution <= voxelize.AUTO_RESOLUTION_RANGE[1] and _fits(mesh, params, resolution, lattice):
             return resolution, lattice
-    resolution = voxelize.auto_resolution(mesh)
+    resolution = preferred or voxelize.auto_resolution(mesh)
     while resolution > 16 and not _fits(mesh, params, resolution):
         resolution = max(16, int(resolution * 0.9))
     _fits(mesh, params, resolution, refuse=True)
