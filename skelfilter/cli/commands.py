@@ -21,7 +21,7 @@ from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.meshlab import descriptions, pymeshlab_filters, scripts
 from skelfilter.meshlab.descriptions import ADD_SKELETON_NOISE, SKELETON_SALIENCY_DENOISE
 from skelfilter.params import DenoiseParams, NoiseParams, VolumeParams
-from skelfilter.runtime import memory, signals
+from skelfilter.runtime import memory, signals, worker_threads
 from skelfilter.runtime.extras import need
 from skelfilter.runtime.progress import Progress
 
@@ -361,7 +361,8 @@ def run(argv=None):
             args = build_parser().parse_args(argv)
             _route_library_messages(getattr(args, "progress", None) is False)
             memory.return_freed_memory()
-            signals.start_workers_shielded()
+            if args.command != "denoise":  # denoise starts them only once it has something to do
+                worker_threads.start()
             return COMMANDS[args.command](args) or 0
         finally:
             signals.block()  # from here to the exit a signal waits, and goes with the process

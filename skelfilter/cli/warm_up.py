@@ -17,7 +17,7 @@ from skelfilter.io.samples import sample_path
 from skelfilter.mesh import guided_filtering, normal_filtering, voxelize
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.params import DenoiseParams, NoiseParams
-from skelfilter.runtime import signals
+from skelfilter.runtime import worker_threads
 
 RESOLUTION = 32
 
@@ -26,7 +26,7 @@ def compile_kernels():
     """Run the noise and every denoising path on the embedded sample at `RESOLUTION`; returns the
     seconds it took."""
     start = time.perf_counter()
-    signals.start_workers_shielded()
+    worker_threads.start()
     clean = mesh_files.load_mesh(sample_path())
     noisy = mesh_pipeline.noisy_mesh(clean, NoiseParams(resolution=RESOLUTION, seed=1))[0]
     # A given noise height: at this size no noise is found, and the features are given back by it.

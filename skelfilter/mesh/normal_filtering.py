@@ -6,8 +6,8 @@ across a sharp edge do not mix; the vertices then move to fit the filtered norma
 squares sense (Sun et al. 2007, eq. 5). Faces are neighbours when they share a vertex. The fine
 pass (:mod:`skelfilter.mesh.fine_pass`) composes these.
 
-Everything works on flat arrays: the face neighbourhood is one sparse matrix, every iteration a
-handful of vectorized products over its entries.
+Everything works on flat arrays: the face neighbourhood is a list of pairs of faces, and every
+iteration one pass over them (a compiled loop that adds in the pairs' order).
 
 References
 ----------
@@ -18,6 +18,7 @@ References
 """
 
 import numpy as np
+from numba import njit
 from scipy import sparse
 
 
@@ -109,12 +110,27 @@ def weighted_average(normals, areas, pairs, static, range_normals, sigma_r):
     ``static`` (`spatial_weights`) and by the range kernel on ``range_normals`` (the normals
     themselves, or a guidance), normalized."""
     i, j = pairs
-    difference = np.sum((range_normals[i] - range_normals[j]) ** 2, axis=1)
-    weight = static * np.exp(-difference / (2 * sigma_r**2))
-    summed = areas[:, None] * normals
-    for axis in range(3):
-        summed[:, axis] += np.bincount(i, weights=weight * normals[j, axis], minlength=len(normals))
+    summed = np.asarray(areas, dtype=np.float64)[:, None] * normals
+    _add_bilateral(summed, np.asarray(i, dtype=np.int64), np.asarray(j, dtype=np.int64),
+                   np.asarray(static, dtype=np.float64), np.ascontiguousarray(normals, dtype=np.float64),
+                   np.ascontiguousarray(range_normals, dtype=np.float64), float(sigma_r))
     return normalize(summed)
+
+
+@njit(cache=True)
+def _add_bilateral(summed, i, j, static, normals, range_normals, sigma_r):
+    """``summed[i] += static * W_r(|range_normals[i] - range_normals[j]|) * normals[j]`` over the pairs,
+    in their order."""
+    scale = 2.0 * sigma_r * sigma_r
+    for p in range(len(i)):
+        a, b = i[p], j[p]
+        difference = 0.0
+        for axis in range(3):
+            d = range_normals[a, axis] - range_normals[b, axis]
+            difference += d * d
+        weight = static[p] * np.exp(-difference / scale)
+        for axis in range(3):
+            summed[a, axis] += weight * normals[b, axis]
 
 
 def fit_vertices(vertices, faces, normals, iterations, movable=None):
@@ -184,11 +200,25 @@ def noise_level(normals, pairs):
     lengths, 0.15 at 0.3 and 0.23 at 0.7.
     """
     i, j = pairs
-    if i.size == 0:
+    if len(i) == 0:
         return 0.0
-    smallest = np.full(len(normals), np.inf)  # faces without pairs (outside a subset) stay infinite
-    np.minimum.at(smallest, i, np.linalg.norm(normals[i] - normals[j], axis=1))
-    return float(np.median(smallest[np.isfinite(smallest)]))
+    smallest = _smallest_difference(np.asarray(i, dtype=np.int64), np.asarray(j, dtype=np.int64),
+                                    np.ascontiguousarray(normals, dtype=np.float64))
+    return float(np.median(smallest[np.isfinite(smallest)]))  # faces without pairs stay infinite
+
+
+@njit(cache=True)
+def _smallest_difference(i, j, normals):
+    """Per face, the smallest ``|normals[i] - normals[j]|`` over its pairs (infinite without any)."""
+    smallest = np.full(len(normals), np.inf)
+    for p in range(len(i)):
+        a, b = i[p], j[p]
+        difference = 0.0
+        for axis in range(3):
+            d = normals[a, axis] - normals[b, axis]
+            difference += d * d
+        smallest[a] = min(smallest[a], np.sqrt(difference))
+    return smallest
 
 
 def noise_correlation(vertices, faces):

@@ -78,7 +78,6 @@ def denoise_mesh_detailed(mesh, params=None, progress=None, **overrides):
     params = resolve_params(params, **overrides)
     progress = progress or Progress(enabled=False)
     mesh = validate_mesh(mesh)
-    worker_threads.start()
     frame = Frame.of(mesh)
     unit = frame.to_unit(mesh)
     try:
@@ -110,6 +109,7 @@ def _denoise_unit(mesh, params, progress):
     routed = params.output_mesh == "auto" and not asked and roughness is not None
     if routed and not roughness.noisy and params.fine_pass != "on":
         return _as_it_was(mesh, params, roughness, given, progress)
+    worker_threads.start()
     skipped = None  # why the voxel stage does not run
     if routed and not roughness.skeleton_scale:
         skipped = f"{roughness.describe()}: the input mesh comes back, smoothed by the fine pass"

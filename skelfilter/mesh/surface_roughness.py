@@ -56,15 +56,15 @@ def residual_angles(points, normals, neighbours=NEIGHBOURS):
     """Per sample: the RMS angle (degrees) between its ``neighbours`` nearest samples' normals (and its
     own) and their least-squares linear fit in position."""
     k = min(neighbours + 1, len(points))
-    distance, index = cKDTree(points).query(points, k)
+    distance, index = cKDTree(points).query(points, k, workers=-1)
     offsets = points[index] - points[:, None, :]
     scale = distance[:, -1:, None]
     scale[scale == 0] = 1.0
     design = np.concatenate([np.ones(offsets.shape[:2] + (1,)), offsets / scale], axis=2)
     target = normals[index]
-    gram = np.einsum("nki,nkj->nij", design, design) + 1e-6 * np.eye(4)
-    coefficients = np.linalg.solve(gram, np.einsum("nki,nkj->nij", design, target))
-    rest = target - np.einsum("nki,nij->nkj", design, coefficients)
+    transposed = design.transpose(0, 2, 1)
+    coefficients = np.linalg.solve(transposed @ design + 1e-6 * np.eye(4), transposed @ target)
+    rest = target - design @ coefficients
     rms = np.sqrt(np.einsum("nkj,nkj->n", rest, rest) / k)
     return np.degrees(2.0 * np.arcsin(np.clip(rms / 2.0, 0.0, 1.0)))
 
@@ -84,7 +84,7 @@ def coarse_roughness(points, normals, faces_count):
     if len(points) == 0:
         return 0.0
     per_face = max(len(points) / max(faces_count, 1), 1.0)
-    index = cKDTree(points).query(points, min(int(np.ceil(COARSE_NEIGHBOURS * per_face)), len(points)))[1]
+    index = cKDTree(points).query(points, min(int(np.ceil(COARSE_NEIGHBOURS * per_face)), len(points)), workers=-1)[1]
     averaged = normals[index].mean(axis=1)
     length = np.linalg.norm(averaged, axis=1, keepdims=True)
     averaged = np.divide(averaged, length, out=np.zeros_like(averaged), where=length > 0)

@@ -68,17 +68,6 @@ def ignore_from_now():
         signal.signal(signum, signal.SIG_IGN)
 
 
-def start_workers_shielded():
-    """Start numba's worker threads with the signals blocked in them (see the module)."""
-    from skelfilter.runtime import worker_threads
-
-    old = block()
-    try:
-        worker_threads.start()
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
-
-
 @contextmanager
 def deferred():
     """SIGINT, SIGTERM and SIGHUP wait until the block ends, then act (Python raises right after).

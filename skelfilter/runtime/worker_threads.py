@@ -3,14 +3,21 @@
 Starting them, numba tries its threading layers in turn; an installed TBB older than numba wants
 makes it warn (a ``NumbaWarning``, "The TBB threading layer requires TBB version 2021 update 6 or
 later") and use OpenMP, as it would without TBB. That warning says nothing a user of skelfilter can
-act on, so the start hides it (and only it) and the entry points start the threads first
-(`skelfilter.runtime.signals.start_workers_shielded` for the CLI).
+act on, so the start hides it (and only it).
+
+The threads start with SIGINT, SIGTERM and SIGHUP blocked (threads inherit the mask of the thread
+that starts them): a signal always reaches the main thread, never a worker inside a kernel (see
+:mod:`skelfilter.runtime.signals`). Each entry point starts them just before its first parallel
+kernel, so that a run that decides there is nothing to do never pays for them.
 """
 
+import signal
 import warnings
 
 import numpy as np
 from numba import NumbaWarning, njit, prange
+
+from skelfilter.runtime import signals
 
 
 @njit(cache=True, parallel=True)
@@ -22,7 +29,12 @@ def _touch(values):
 
 
 def start():
-    """Start the threads (the first parallel kernel does), if they have not started."""
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message=r"(?s).*TBB threading layer", category=NumbaWarning)
-        _touch(np.zeros(64))
+    """Start the threads (the first parallel kernel does) with the signals blocked in them, if they
+    have not started. The calling thread's mask is restored before returning."""
+    old = signals.block()
+    try:
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message=r"(?s).*TBB threading layer", category=NumbaWarning)
+            _touch(np.zeros(64))
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
