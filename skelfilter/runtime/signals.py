@@ -38,8 +38,16 @@ class Interrupted(KeyboardInterrupt):
         return 128 + self.signum
 
 
+# Inside `deferred` blocks (their depth) a signal the handler sees is kept here, raised as the
+# outermost block ends.
+_held = {"depth": 0, "signum": None}
+
+
 def _raise(signum, frame):
     signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)
+    if _held["depth"]:
+        _held["signum"] = _held["signum"] or signum
+        return
     raise Interrupted(signum)
 
 
@@ -74,12 +82,20 @@ def deferred():
 
     An interrupt that arrived while numba's OpenMP kernels ran in this thread crashed the process
     (``geodesic_importance``'s A*: a segmentation fault in the main thread); a pipeline step is
-    therefore never interrupted inside, only between steps.
+    therefore never interrupted inside, only between steps. A signal that reached the CLI's handler
+    just before the block (Python runs the handler at its next instruction, which may be inside) is
+    held too: an interrupt inside an import of VTK's modules left them half loaded, and the process
+    crashed on its way out.
     """
     old = block()
+    _held["depth"] += 1
     try:
         yield
     finally:
+        _held["depth"] -= 1
+        if _held["depth"] == 0 and _held["signum"] is not None:
+            signum, _held["signum"] = _held["signum"], None
+            raise Interrupted(signum)  # the handler left the signals blocked, as it does when it raises
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 

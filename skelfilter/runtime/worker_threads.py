@@ -11,7 +11,6 @@ that starts them): a signal always reaches the main thread, never a worker insid
 kernel, so that a run that decides there is nothing to do never pays for them.
 """
 
-import signal
 import warnings
 
 import numpy as np
@@ -30,11 +29,7 @@ def _touch(values):
 
 def start():
     """Start the threads (the first parallel kernel does) with the signals blocked in them, if they
-    have not started. The calling thread's mask is restored before returning."""
-    old = signals.block()
-    try:
-        with warnings.catch_warnings():
-            warnings.filterwarnings("ignore", message=r"(?s).*TBB threading layer", category=NumbaWarning)
-            _touch(np.zeros(64))
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    have not started (`skelfilter.runtime.signals.deferred`: a signal acts once they have)."""
+    with signals.deferred(), warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=r"(?s).*TBB threading layer", category=NumbaWarning)
+        _touch(np.zeros(64))

@@ -14,6 +14,7 @@ import numpy as np
 
 from skelfilter.evaluation.metrics import sharp_edges
 from skelfilter.runtime.extras import need
+from skelfilter.runtime.signals import deferred
 
 # The environment variable with which VTK makes its render windows with OSMesa.
 _WINDOW_ENV = "VTK_DEFAULT_OPENGL_WINDOW"
@@ -83,10 +84,12 @@ def _polydata(mesh):
 def render(mesh, camera, path, size, scalars=None, clim=None, cmap="viridis"):
     """Draw ``mesh`` into a PNG at ``path``; with ``scalars`` (one per vertex) as a colour map over
     ``clim`` without shading variation from the colour, else in a plain colour."""
-    pv = need("pyvista", "the comparison's pictures")
-
-    with _offscreen_window():
-        _draw(pv.Plotter(off_screen=True, window_size=list(size)), mesh, camera, path, scalars, clim, cmap)
+    # Held signals: an interrupt inside VTK's lazy imports or its OpenGL context left VTK half set up,
+    # and the process crashed on the way out; it acts once the picture is drawn.
+    with deferred():
+        pv = need("pyvista", "the comparison's pictures")
+        with _offscreen_window():
+            _draw(pv.Plotter(off_screen=True, window_size=list(size)), mesh, camera, path, scalars, clim, cmap)
 
 
 def _draw(plotter, mesh, camera, path, scalars, clim, cmap):
