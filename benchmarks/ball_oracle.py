@@ -1,0 +1,202 @@
+"""The per-ball oracle: what a skeleton pipeline could reach if it knew, ball by ball, which balls are
+noise; and how well the measures a pipeline has separate the balls the oracle keeps from the rest.
+
+    python benchmarks/ball_oracle.py [--shapes NAME ...] [--kinds stripes bumps-dents ...] [--seed 1]
+                                     [--resolution 160] [--default] [--out results.json]
+
+For each case (a benchmark shape, the thesis' noise of `quality.NOISE_KINDS` at ``--resolution``), on
+the noise grid, with the clean shape known:
+
+- Labels. Every IE-skeleton ball of the noisy shape, foreground and background (the background
+  bounded by the grid's outer layer, as the background stage bounds it), is *noise* where it
+  protrudes beyond the clean shape (its radius exceeds the clean distance at its centre, the clean
+  shape's for the foreground, its complement's for the background, by more than one voxel), else
+  *keep*.
+- The oracle's output: the foreground balls whose centre lies inside the clean shape, their radii
+  capped at the clean distance, united with the noisy shape's background voxels that no such
+  background ball (centre outside the clean shape, radius capped likewise) covers. No stage order,
+  one formulation for bumps and dents.
+- Its scores, in voxels: bumps left, dents left, noise left (both), clean lost (the clean shape
+  outside the dents not in the output), thin parts kept (`metrics.thin_parts`), the voxel error over
+  the noisy input's, and the genus of the output against the clean shape's.
+- Separability of the foreground balls' labels by each candidate measure: the area under the ROC
+  curve (AUC; 0.5 is chance, 1 separates perfectly; a measure that is *lower* on noise is turned
+  around) of the geodesic importance ρ (eq. 3.2), the radius D, and ρ/D (eq. 3.1).
+
+``--default`` also scores the default pipeline's voxel output (``denoise_volume`` on the noisy mask).
+Rows print as they come; a summary per split (tuning shapes, `quality.HELD_OUT`) follows.
+"""
+
+import argparse
+import json
+import sys
+import time
+
+import numpy as np
+import quality
+import shapes
+from scipy import ndimage, stats
+
+from skelfilter.core import pipeline, skeleton, stage
+from skelfilter.core.distance import distance_and_features
+from skelfilter.core.reconstruct import union_of_balls
+from skelfilter.evaluation import metrics
+from skelfilter.mesh import pipeline as mesh_pipeline
+from skelfilter.params import DenoiseParams
+from skelfilter.runtime.progress import Progress
+
+PROTRUSION = 1.0  # voxels a ball may stand beyond the clean shape and still be labelled keep
+
+
+def bounded_background(mask):
+    """The complement of ``mask`` without the grid's outer layer (it stands for the infinite outside)."""
+    background = ~mask
+    background[[0, -1], :, :] = background[:, [0, -1], :] = background[:, :, [0, -1]] = False
+    return background
+
+
+def labelled_balls(noisy_side, clean_side):
+    """The IE-skeleton balls of ``noisy_side``: (flat centres, radii, clean radii, noise labels)."""
+    distance, _ = distance_and_features(noisy_side)
+    centres = skeleton.ie_skeleton(distance)
+    radii = distance.reshape(-1)[centres].astype(np.float64)
+    clean_distance = ndimage.distance_transform_edt(clean_side).reshape(-1)[centres]
+    return centres, radii, clean_distance, radii - clean_distance > PROTRUSION
+
+
+def oracle(noisy, clean):
+    """The oracle's output mask (see the module's docstring) and the foreground's labelled balls."""
+    shape = noisy.shape
+    fg = labelled_balls(noisy, clean)
+    bg = labelled_balls(bounded_background(noisy), bounded_background(clean))
+
+    def kept_union(centres, radii, clean_radii):
+        inside = clean_radii > 0  # the centre lies in the clean set of its side
+        if not inside.any():
+            return np.zeros(shape, dtype=bool)
+        return union_of_balls(shape, centres[inside], np.minimum(radii, clean_radii)[inside])[0]
+
+    out = kept_union(*fg[:3]) | (~noisy & ~kept_union(*bg[:3]))
+    out[[0, -1], :, :] = out[:, [0, -1], :] = out[:, :, [0, -1]] = False
+    return out, fg
+
+
+def auc(values, positive):
+    """Area under the ROC curve of ``values`` scoring ``positive`` (Mann-Whitney), at least 0.5
+    (a measure that is lower on the positives is turned around)."""
+    n_pos, n_neg = int(positive.sum()), int((~positive).sum())
+    if n_pos == 0 or n_neg == 0:
+        return float("nan")
+    ranks = stats.rankdata(values)
+    area = (ranks[positive].sum() - n_pos * (n_pos + 1) / 2) / (n_pos * n_neg)
+    return float(max(area, 1.0 - area))
+
+
+def separability(noisy, fg, resolution):
+    """AUC of ρ, D and ρ/D on the foreground balls' labels."""
+    centres, radii, _, noise = fg
+    params = DenoiseParams(resolution=resolution)
+    fields = stage.skeleton_fields(noisy, params, Progress(enabled=False))
+    order = np.searchsorted(fields.voxels, centres)
+    rho = fields.rho[order].astype(np.float64)
+    return {"rho": auc(rho, noise), "radius": auc(radii, noise), "rho_over_radius": auc(rho / radii, noise)}
+
+
+def scores(out, noise, thin):
+    """The voxel measures of an output mask against the case's noise masks."""
+    n_bumps, n_dents = int(noise.bumps.sum()), int(noise.dents.sum())
+    left_bumps, left_dents = int((noise.bumps & out).sum()), int((noise.dents & ~out).sum())
+    share = quality._share
+    return {
+        "noise_left": share(left_bumps + left_dents, n_bumps + n_dents),
+        "bumps_left": share(left_bumps, n_bumps),
+        "dents_left": share(left_dents, n_dents),
+        "clean_lost": share(int((noise.clean & ~noise.dents & ~out).sum()), int(noise.clean.sum())),
+        "thin_kept": metrics.thin_parts_kept(out, thin),
+        "error_ratio": share(int((out ^ noise.clean).sum()), int((noise.noisy ^ noise.clean).sum())),
+        "genus": metrics.voxel_genus(out)["genus"],
+    }
+
+
+def run_case(shape, kind, seed, resolution, with_default):
+    case = quality.Case(shape, kind, seed)
+    _, noise, _ = mesh_pipeline.noisy_mesh(shapes.load(shape), case.noise(resolution))
+    thin = metrics.thin_parts(noise.clean, quality.THIN_RADIUS)
+    start = time.perf_counter()
+    out, fg = oracle(noise.noisy, noise.clean)
+    row = {"case": case.name, "split": case.split, "oracle_s": time.perf_counter() - start,
+           "clean_genus": metrics.voxel_genus(noise.clean)["genus"], "balls": int(len(fg[0])),
+           "noise_balls": int(fg[3].sum()), "oracle": scores(out, noise, thin),
+           "auc": separability(noise.noisy, fg, resolution)}
+    if with_default:
+        mask = pipeline.denoise_volume(noise.noisy, DenoiseParams(resolution=resolution)).mask
+        row["default"] = scores(mask, noise, thin)
+    return row
+
+
+def _line(row):
+    o, a = row["oracle"], row["auc"]
+    text = (f"{row['case']:28s} {row['split']:9s} oracle: noise left {o['noise_left']:.3f} (bumps "
+            f"{o['bumps_left']:.3f}, dents {o['dents_left']:.3f}), clean lost {100 * o['clean_lost']:.2f} %, thin kept "
+            f"{o['thin_kept']:.3f}, error ratio {o['error_ratio']:.3f}, genus {o['genus']} (clean "
+            f"{row['clean_genus']}), {row['oracle_s']:.1f} s | AUC rho {a['rho']:.3f}, D {a['radius']:.3f}, "
+            f"rho/D {a['rho_over_radius']:.3f} ({row['noise_balls']} of {row['balls']} balls noise)")
+    if "default" in row:
+        d = row["default"]
+        text += (f" | default: noise left {d['noise_left']:.3f}, clean lost {100 * d['clean_lost']:.2f} %, "
+                 f"thin kept {d['thin_kept']:.3f}, genus {d['genus']}")
+    return text
+
+
+def _median(rows, *keys):
+    values = []
+    for row in rows:
+        for key in keys:
+            row = row[key]
+        values.append(row)
+    return float(np.nanmedian(values))
+
+
+def summary(rows):
+    lines = []
+    for split in quality.SPLITS:
+        part = [r for r in rows if r["split"] == split]
+        if not part:
+            continue
+        text = (f"{split} ({len(part)} cases), medians: oracle noise left {_median(part, 'oracle', 'noise_left'):.3f}, "
+                f"clean lost {100 * _median(part, 'oracle', 'clean_lost'):.2f} %, thin kept "
+                f"{_median(part, 'oracle', 'thin_kept'):.3f}, "
+                f"error ratio {_median(part, 'oracle', 'error_ratio'):.3f}, "
+                f"genus equal to the clean shape's on {sum(r['oracle']['genus'] == r['clean_genus'] for r in part)} "
+                f"of {len(part)}; AUC rho {_median(part, 'auc', 'rho'):.3f}, D {_median(part, 'auc', 'radius'):.3f}, "
+                f"rho/D {_median(part, 'auc', 'rho_over_radius'):.3f}")
+        if all("default" in r for r in part):
+            text += f"; default noise left {_median(part, 'default', 'noise_left'):.3f}"
+        lines.append(text)
+    return lines
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--shapes", nargs="+", default=sorted(shapes.SHAPES), choices=sorted(shapes.SHAPES))
+    parser.add_argument("--kinds", nargs="+", default=["stripes", "bumps-dents"], choices=sorted(quality.NOISE_KINDS))
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--resolution", type=int, default=160)
+    parser.add_argument("--default", action="store_true", help="also score the default pipeline's voxel output")
+    parser.add_argument("--out", help="also write every row as JSON here")
+    args = parser.parse_args(argv)
+    rows = []
+    for shape in args.shapes:
+        for kind in args.kinds:
+            rows.append(run_case(shape, kind, args.seed, args.resolution, args.default))
+            print(_line(rows[-1]), flush=True)
+    for line in summary(rows):
+        print(line)
+    if args.out:
+        with open(args.out, "w") as f:
+            json.dump(rows, f, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
