@@ -77,7 +77,8 @@ def build(cls, base=None, **values):
     Raises
     ------
     ParameterError
-        An unknown name, as for any other bad value (not the TypeError of the constructor).
+        An unknown name, as for any other bad value (not the TypeError of the constructor), or a
+        ``base`` that is not a ``cls``.
     """
     known = [f.name for f in fields(cls)]
     unknown = sorted(set(values) - set(known))
@@ -86,6 +87,9 @@ def build(cls, base=None, **values):
                              f"(known: {', '.join(known)})")
     if base is None:
         return cls(**values)
+    if not isinstance(base, cls):
+        hint = f" (a preset by name: preset={base!r})" if isinstance(base, str) else ""
+        raise ParameterError(f"params must be a {cls.__name__} or None, got {type(base).__name__}{hint}")
     if not values:
         return base
     return base.with_(**values) if hasattr(base, "with_") else replace(base, **values)

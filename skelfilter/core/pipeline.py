@@ -229,7 +229,8 @@ def _denoise_volume(volume, params, progress, spacing, affine, overrides):
     if spacing is None and affine is not None:
         spacing = np.linalg.norm(np.asarray(affine, dtype=float)[:3, :3], axis=0)
     if spacing is not None:
-        spacing = VolumeParams(spacing=tuple(float(s) for s in np.ravel(spacing))).spacing
+        # as given, one number per entry: the table's check refuses anything but three numbers
+        spacing = VolumeParams(spacing=tuple(np.ravel(np.asarray(spacing, dtype=object)).tolist())).spacing
     resample = spacing is not None and not voxel_spacing.is_isotropic(spacing)
     keep = params.unchanged_surface == "input"
     if resample:

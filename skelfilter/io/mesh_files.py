@@ -111,6 +111,8 @@ def validate_mesh(mesh, name="mesh"):
     if not isinstance(mesh, trimesh.Trimesh):
         raise InputError(f"{name}: expected a trimesh.Trimesh or a (vertices, faces) pair, got "
                          f"{type(mesh).__name__}")
+    if np.ndim(mesh.vertices) != 2 or np.shape(mesh.vertices)[1] != 3:
+        raise InputError(f"{name}: vertices of shape (n, 3) expected, got {np.shape(mesh.vertices)}")
     if len(mesh.faces) == 0 or len(mesh.vertices) == 0:
         raise InputError(f"{name}: the mesh is empty (no triangles)")
     if not np.isfinite(mesh.vertices).all():
