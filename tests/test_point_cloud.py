@@ -81,3 +81,45 @@ def test_moved_points_need_a_cloud(tmp_path):
     with pytest.raises(InputError, match="moved points need a point cloud input"):
         denoise_file.denoise_file(tmp_path / "cube.ply", tmp_path / "o.ply", DenoiseParams(), points=True)
     assert point_cloud.is_point_cloud(tmp_path / "cube.ply") is False
+
+
+def _cloud(n=2000, normals=False):
+    points = np.random.default_rng(0).random((n, 3)).astype(np.float32)
+    cloud = o3d.t.geometry.PointCloud(o3d.core.Tensor(points))
+    if normals:
+        cloud.point.normals = o3d.core.Tensor(points[:, ::-1].copy())
+    return cloud
+
+
+@pytest.mark.parametrize("ext", ["xyz", "xyzn"])
+def test_text_clouds_are_read_as_open3d_reads_them_final_newline_or_not(tmp_path, ext):
+    path = tmp_path / f"c.{ext}"
+    o3d.t.io.write_point_cloud(str(path), _cloud(normals=ext == "xyzn"))
+    theirs = o3d.t.io.read_point_cloud(str(path))
+    path.write_text(path.read_text().rstrip("\n"))  # open3d's own reader aborted the process on this
+    ours = point_cloud.load_points(path)
+    assert set(ours.point) == set(theirs.point)
+    for key in theirs.point:
+        assert ours.point[key].dtype == theirs.point[key].dtype
+        assert np.array_equal(ours.point[key].numpy(), theirs.point[key].numpy())
+
+
+@pytest.mark.parametrize("text, message", [("1 2\n" * 1500, "each line must hold 3 numbers"),
+                                           ("x y z\n" * 1500, "each line must hold 3 numbers"),
+                                           ("", "0 points is too sparse")])
+def test_malformed_text_clouds_are_refused(tmp_path, text, message):
+    (tmp_path / "c.xyz").write_text(text)
+    with pytest.raises(InputError, match=message):
+        point_cloud.load_points(tmp_path / "c.xyz")
+
+
+@pytest.mark.parametrize("options", [{"write_ascii": True}, {"write_ascii": False},
+                                     {"write_ascii": False, "compressed": True}], ids=["ascii", "binary", "compressed"])
+def test_a_truncated_pcd_is_refused(tmp_path, options):
+    whole = tmp_path / "whole.pcd"
+    o3d.t.io.write_point_cloud(str(whole), _cloud(), **options)
+    assert len(point_cloud.load_points(whole).point.positions) == 2000
+    data = whole.read_bytes()
+    (tmp_path / "cut.pcd").write_bytes(data[:len(data) * 2 // 3])
+    with pytest.raises(InputError, match="the point cloud is truncated .*declares 2000 points"):
+        point_cloud.load_points(tmp_path / "cut.pcd")

@@ -1,12 +1,15 @@
 """Point clouds in: a scanner's points made into a solid, denoised as a mesh, and the points moved back.
 
-open3d reads the cloud (PLY without faces, PCD, XYZ, XYZN, PTS) with every per-point attribute, and
-makes the solid by screened Poisson reconstruction (Kazhdan & Hoppe 2013) from the points' normals,
-estimated (principal axes of the nearest neighbours) and oriented consistently (a minimum spanning
-tree over the neighbours) when the file has none. The octree depth follows the points' spacing, so
-Poisson keeps what the points resolve. What it needs, in short: a closed scan (the points all round
-the object, or the Poisson surface bulges over the gaps), at least `MIN_POINTS` points, and a
-spacing of at most 1/`MAX_SPACING_RATIO` of the longest side.
+open3d reads the cloud (PLY without faces, PCD, PTS) with every per-point attribute; the plain text
+formats XYZ and XYZN are read here (open3d's text reader corrupted its memory on a file without a
+final newline and aborted the process), and a PCD file is checked whole first (open3d read a
+truncated one with uninitialised points). The solid comes from screened Poisson reconstruction
+(Kazhdan & Hoppe 2013) from the points' normals, estimated (principal axes of the nearest neighbours)
+and oriented consistently (a minimum spanning tree over the neighbours) when the file has none. The
+octree depth follows the points' spacing, so Poisson keeps what the points resolve. What it needs,
+in short: a closed scan (the points all round the object, or the Poisson surface bulges over the
+gaps), at least `MIN_POINTS` points, and a spacing of at most 1/`MAX_SPACING_RATIO` of the longest
+side.
 
 References
 ----------
@@ -18,6 +21,7 @@ import os
 import re
 import sys
 import tempfile
+import warnings
 
 import numpy as np
 import trimesh
@@ -37,6 +41,8 @@ DEPTH_RANGE = (6, 10)
 NEIGHBOURS = 50
 # The least volume of the solid, over the cube of the longest side.
 MIN_VOLUME = 1e-3
+# The plain text formats read here: their columns (positions, then normals), one point per line.
+TEXT_COLUMNS = {"xyz": 3, "xyzn": 6}
 
 
 def is_point_cloud(path):
@@ -55,7 +61,7 @@ def is_point_cloud(path):
 
 
 def load_points(path):
-    """The cloud as an ``open3d.t.geometry.PointCloud`` (positions and every attribute, float64).
+    """The cloud as an ``open3d.t.geometry.PointCloud`` (positions and every attribute, as stored).
 
     Raises
     ------
@@ -67,11 +73,17 @@ def load_points(path):
     path = str(path)
     if not os.path.isfile(path):
         raise InputError(f"{path}: no such file")
-    with _output_captured() as said:
-        cloud = o3d.t.io.read_point_cloud(path)
-        complaint = " | ".join(line.strip() for line in _plain(said()).splitlines() if line.strip())[:300]
-    if "positions" not in cloud.point or "fail" in complaint.lower():
-        raise InputError(f"{path}: malformed point cloud ({complaint or 'no points could be read'})")
+    ext = os.path.splitext(path)[1].lower().lstrip(".")
+    if ext in TEXT_COLUMNS:
+        cloud = _read_text_cloud(path, TEXT_COLUMNS[ext])
+    else:
+        if ext == "pcd":
+            _check_pcd_whole(path)
+        with _output_captured() as said:
+            cloud = o3d.t.io.read_point_cloud(path)
+            complaint = " | ".join(line.strip() for line in _plain(said()).splitlines() if line.strip())[:300]
+        if "positions" not in cloud.point or "fail" in complaint.lower():
+            raise InputError(f"{path}: malformed point cloud ({complaint or 'no points could be read'})")
     points = cloud.point.positions.numpy()
     if len(points) < MIN_POINTS:
         raise InputError(f"{path}: {len(points)} points is too sparse to make a solid of "
@@ -80,6 +92,68 @@ def load_points(path):
         raise InputError(f"{path}: point coordinates contain NaN or infinity (or numbers too large for the "
                          "reader: over 3.4e38 where it reads single precision)")
     return cloud
+
+
+def _read_text_cloud(path, columns):
+    """An XYZ (``columns`` 3) or XYZN (6: positions, then normals) file as open3d's reader gives it:
+    single-precision positions (and normals); further columns are ignored."""
+    import open3d as o3d
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # an empty file: refused below as too sparse
+            values = np.loadtxt(path, dtype=np.float64, usecols=range(columns), ndmin=2, comments="#")
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: malformed point cloud (each line must hold {columns} numbers: "
+                         f"{str(exc).splitlines()[0][:200]})") from None
+    cloud = o3d.t.geometry.PointCloud(o3d.core.Tensor(values[:, :3].astype(np.float32)))
+    if columns == 6:
+        cloud.point.normals = o3d.core.Tensor(values[:, 3:6].astype(np.float32))
+    return cloud
+
+
+def _check_pcd_whole(path):
+    """Refuse a PCD file that holds fewer points than its header declares (a truncated file).
+
+    The header (text lines up to ``DATA``) gives the points (``POINTS``, else ``WIDTH`` x ``HEIGHT``)
+    and the bytes of one (``SIZE`` x ``COUNT`` per field); ``ascii`` data holds a line per point,
+    ``binary`` the points' bytes, ``binary_compressed`` two sizes and the compressed bytes.
+    """
+    with open(path, "rb") as f:
+        data = f.read()
+    header, fields, at = {}, None, 0
+    while at < len(data):
+        end = data.find(b"\n", at)
+        end = len(data) if end < 0 else end
+        words = data[at:end].decode("ascii", "replace").split()
+        at = end + 1
+        if words and not words[0].startswith("#"):
+            header[words[0].upper()] = words[1:]
+            if words[0].upper() == "DATA":
+                fields = words[1:2]
+                break
+    try:
+        sizes = [int(v) for v in header["SIZE"]]
+        counts = [int(v) for v in header.get("COUNT", ["1"] * len(sizes))]
+        points = int(header["POINTS"][0]) if "POINTS" in header else \
+            int(header["WIDTH"][0]) * int(header["HEIGHT"][0])
+    except (KeyError, IndexError, ValueError):
+        raise InputError(f"{path}: malformed point cloud (the PCD header lacks SIZE, POINTS or WIDTH and "
+                         "HEIGHT)") from None
+    kind, body = (fields or ["?"])[0].lower(), len(data) - at
+    if kind == "ascii":
+        held = len([line for line in data[at:].splitlines() if line.strip()])
+    elif kind == "binary":
+        held = body // max(sum(s * c for s, c in zip(sizes, counts)), 1)
+    elif kind == "binary_compressed":
+        compressed = int.from_bytes(data[at:at + 4], "little") if body >= 8 else None
+        held = points if compressed is not None and body >= 8 + compressed else 0
+    else:
+        raise InputError(f"{path}: malformed point cloud (PCD data {kind!r}: ascii, binary or binary_compressed "
+                         "expected)")
+    if held < points:
+        raise InputError(f"{path}: the point cloud is truncated (its header declares {points} points, the file "
+                         f"holds {held})")
 
 
 @contextlib.contextmanager
