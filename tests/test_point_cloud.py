@@ -123,3 +123,9 @@ def test_a_truncated_pcd_is_refused(tmp_path, options):
     (tmp_path / "cut.pcd").write_bytes(data[:len(data) * 2 // 3])
     with pytest.raises(InputError, match="the point cloud is truncated .*declares 2000 points"):
         point_cloud.load_points(tmp_path / "cut.pcd")
+
+
+def test_a_cloud_is_read_with_the_standard_output_closed(tmp_path, monkeypatch):
+    o3d.t.io.write_point_cloud(str(tmp_path / "c.pcd"), _cloud())
+    monkeypatch.setattr("sys.stdout", None)  # Python's stand-in for a descriptor closed at start
+    assert len(point_cloud.load_points(tmp_path / "c.pcd").point.positions) == 2000

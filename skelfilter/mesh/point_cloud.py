@@ -160,9 +160,10 @@ def _check_pcd_whole(path):
 def _output_captured():
     """What C libraries (open3d and its PLY reader) print while the block runs, on the standard output
     or error, goes to a file instead, read by the function yielded: an error stays one line."""
-    sys.stdout.flush()
-    sys.stderr.flush()
-    saved = [os.dup(1), os.dup(2)]
+    for stream in (sys.stdout, sys.stderr):
+        if stream is not None:  # None: the command was started with it closed
+            stream.flush()
+    saved = [_duplicate(1), _duplicate(2)]
     with tempfile.TemporaryFile() as sink:
         os.dup2(sink.fileno(), 1)
         os.dup2(sink.fileno(), 2)
@@ -170,8 +171,19 @@ def _output_captured():
             yield lambda: (sink.seek(0), sink.read().decode("utf-8", "replace"))[1]
         finally:
             for fd, copy in zip((1, 2), saved):
-                os.dup2(copy, fd)
-                os.close(copy)
+                if copy is None:  # closed before: closed again
+                    os.close(fd)
+                else:
+                    os.dup2(copy, fd)
+                    os.close(copy)
+
+
+def _duplicate(fd):
+    """A copy of the descriptor ``fd``, or None where it is closed."""
+    try:
+        return os.dup(fd)
+    except OSError:
+        return None
 
 
 def _plain(text):
