@@ -105,3 +105,30 @@ def test_python_api_and_bad_batches(inputs, tmp_path):
     with pytest.raises(ParameterError, match="unknown parameter nosuch"):
         batch.denoise_many([str(inputs / "mesh0.ply")], str(tmp_path / "o"), nosuch=1)
     assert not (tmp_path / "o").exists()
+
+
+def test_the_progress_bar_takes_the_standard_error_as_it_is_when_asked(monkeypatch):
+    import io
+
+    monkeypatch.setattr("sys.stderr", None)  # closed when the command started
+    assert batch.progress_bar() is None
+    stream = io.StringIO()
+    monkeypatch.setattr("sys.stderr", stream)
+    batch.progress_bar()({"input": "/a/b.ply", "status": "done", "error": ""}, {"done": 1, "total": 2, "failed": 0})
+    assert stream.getvalue() == "[###############---------------] 1/2, 0 failed: b.ply done\n"
+
+
+def test_a_name_that_is_no_utf8_is_denoised_in_a_batch_with_the_others(tmp_path):
+    folder = tmp_path / "in"
+    folder.mkdir()
+    odd = os.path.join(str(folder), os.fsdecode(b"caf\xe9.ply"))  # Latin-1 bytes, as on a legacy share
+    try:
+        trimesh.creation.icosphere(3).export(odd)
+    except (OSError, UnicodeError):
+        pytest.skip("this file system takes UTF-8 names only")
+    trimesh.creation.icosphere(3).export(folder / "good.ply")
+    rows = batch.denoise_many([str(folder)], str(tmp_path / "out"), workers=1, resolution=32)
+    assert [row["status"] for row in rows] == ["ok", "ok"], rows
+    assert sorted(os.listdir(tmp_path / "out")) == sorted([os.path.basename(odd), "good.ply", "summary.csv",
+                                                           "summary.json"])
+    assert len(mesh_files.load_mesh(os.path.join(str(tmp_path / "out"), os.path.basename(odd))).faces) > 0

@@ -41,7 +41,12 @@ def load_mesh(path):
         raise InputError(f"{path}: the file is empty")
     options, wedge_uv = _ply_options(path) if ext == "ply" else ({}, False)
     try:
-        mesh = trimesh.load(path, file_type=ext, force="mesh", process=False, **options)
+        if _utf8(path):
+            mesh = trimesh.load(path, file_type=ext, force="mesh", process=False, **options)
+        else:  # trimesh hashes the name as UTF-8: such a file is read from an open file, its folder beside
+            with open(path, "rb") as f:
+                mesh = trimesh.load(f, file_type=ext, force="mesh", process=False,
+                                    resolver=trimesh.resolvers.FilePathResolver(os.path.dirname(path)), **options)
     except Exception as exc:  # trimesh raises many kinds on corrupt files
         raise InputError(f"{path}: malformed {ext.upper()} file ({str(exc) or type(exc).__name__})") from None
     problem = _malformed(path, ext, mesh)
@@ -51,6 +56,15 @@ def load_mesh(path):
         log.warning("%s: its per-wedge texture coordinates are not kept (the mesh is read without them)", path)
         mesh = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
     return validate_mesh(mesh, path)
+
+
+def _utf8(path):
+    """Whether ``path`` is text UTF-8 can encode (a name that is none is kept by Python as surrogates)."""
+    try:
+        path.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
 
 
 def _ply_options(path):

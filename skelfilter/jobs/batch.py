@@ -359,7 +359,7 @@ def _collect(client, todo, threads, params, volume_params, report, skipped):
 
     rows, counts = {}, {"done": skipped, "failed": 0, "total": skipped + len(todo)}
     futures = {client.submit(_task, path, out, params, volume_params, threads, pure=False,
-                             key=f"skelfilter-{i}-{os.path.basename(path)}"): (path, out)
+                             key=f"skelfilter-{i}-{_printable(os.path.basename(path))}"): (path, out)
                for i, (path, out) in enumerate(todo)}
     for future in as_completed(futures):
         path, out = futures[future]
@@ -376,6 +376,11 @@ def _collect(client, todo, threads, params, volume_params, report, skipped):
     return rows
 
 
+def _printable(name):
+    """A file name as text the scheduler can send (a name that is no UTF-8 broke its connection)."""
+    return os.fsencode(name).decode("utf-8", "replace")
+
+
 def _worker_error(exc):
     if type(exc).__name__ == "KilledWorker":
         return "its worker died, and again on a second try (out of memory? a crash?)"
@@ -384,7 +389,8 @@ def _worker_error(exc):
 
 def _write_summary(out_dir, rows):
     def write_csv(tmp):
-        with open(tmp, "w", newline="", encoding="utf-8") as f:
+        # a name that is no UTF-8 (its bytes kept by Python as surrogates) is written as its bytes
+        with open(tmp, "w", newline="", encoding="utf-8", errors="surrogateescape") as f:
             writer = csv.DictWriter(f, fieldnames=SUMMARY_FIELDS)
             writer.writeheader()
             writer.writerows(rows)
@@ -397,8 +403,12 @@ def _write_summary(out_dir, rows):
         output_files.atomic_write(os.path.join(out_dir, name), write)
 
 
-def progress_bar(stream=sys.stderr, width=30):
-    """A `denoise_many` ``report`` that draws a bar on a terminal, else prints a line per file."""
+def progress_bar(stream=None, width=30):
+    """A `denoise_many` ``report`` that draws a bar on a terminal, else prints a line per file, on
+    ``stream`` (the standard error as it is when called; nothing where it is closed)."""
+    stream = stream if stream is not None else sys.stderr
+    if stream is None:
+        return None
     terminal = stream.isatty()
 
     def report(row, counts):
