@@ -111,6 +111,7 @@ def test_mixed_script_skeleton_step_equals_skelfilter_denoise(noisy_file, tmp_pa
     script.write_text(mlx.script_text(gen._saved_filters(gen.MIXED_CLEANUP) + exported))
     r = run_cli("run-script", script, noisy_file, tmp_path / "mixed.ply")
     assert r.returncode == 0, r.stderr
+    assert f"wrote {tmp_path / 'mixed.ply'}: layer " in r.stderr  # what it wrote, on a success too
     cleaned = _direct(noisy_file, gen.MIXED_CLEANUP)
     cleaned.save_current_mesh(str(tmp_path / "cleaned.ply"))
     r = run_cli("denoise", tmp_path / "cleaned.ply", tmp_path / "denoised.ply", *flags)

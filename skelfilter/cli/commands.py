@@ -251,7 +251,7 @@ def _run_script(args):
     layers = scripts.run_steps(steps, mesh, args.timeout, progress)
     out = mesh_files.validate_mesh(layers.current_mesh, f"{args.script}: the current layer at the end")
     mesh_files.save_mesh(out, args.output, protect={args.input: "input", args.script: "script"})
-    if progress.enabled:
+    if args.progress is not False:  # what it wrote, unless --quiet
         print(f"wrote {args.output}: layer {layers.current} of {len(layers.meshes)}, "
               f"{len(out.vertices)} vertices, {len(out.faces)} faces", file=sys.stderr)
 
