@@ -49,6 +49,15 @@ def test_need_names_the_extra_of_a_missing_module(monkeypatch):
         need("pymeshlab", "skelfilter compare", extra="compare")
 
 
+def test_a_volume_without_its_reader_is_no_malformed_file(monkeypatch, tmp_path):
+    from skelfilter.io import volume_files
+
+    (tmp_path / "v.nii").write_bytes(b"\0" * 348)
+    monkeypatch.setitem(sys.modules, "nibabel", None)
+    with pytest.raises(MissingExtra, match=r"^NIfTI volumes: nibabel is not installed"):
+        volume_files.load_volume(tmp_path / "v.nii")
+
+
 def test_a_broken_install_is_not_taken_for_a_missing_extra(monkeypatch):
     def fail(name, *args, **kwargs):
         raise ModuleNotFoundError("No module named 'libsomething'", name="libsomething")

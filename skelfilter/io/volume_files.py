@@ -18,7 +18,7 @@ import numpy as np
 
 from skelfilter.errors import InputError, ResourceError
 from skelfilter.io.output_files import atomic_write
-from skelfilter.runtime.extras import need
+from skelfilter.runtime.extras import MissingExtra, need
 from skelfilter.runtime.memory import available_bytes
 
 # Suffix -> format; ``.nii.gz`` is matched before ``.gz`` would be.
@@ -83,7 +83,7 @@ def load_volume(path, spacing=None):
         raise InputError(f"{path}: no such file")
     try:
         volume = _READERS[fmt](path)
-    except (InputError, ResourceError):
+    except (InputError, ResourceError, MissingExtra):  # a missing reader is no malformed file
         raise
     except MemoryError:
         raise ResourceError(f"{path}: the volume does not fit in the memory available") from None
