@@ -159,7 +159,7 @@ def test_input_mode_pulls_bumps_down_with_few_folds():
     assert np.array_equal(out.faces, noisy.faces)
     left = voxelize.voxelize_on_grid(out, grid) & masks.bumps
     assert left.sum() < 0.25 * masks.bumps.sum()
-    folded = [int(n.split()[0]) for n in progress.notes if "faces stay folded" in n]
+    folded = [int(n.split()[0]) for n in progress.notes if " folded (turned against" in n]
     assert sum(folded) < 0.01 * len(out.faces)
 
 

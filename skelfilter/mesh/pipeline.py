@@ -247,7 +247,8 @@ def _kept_vertices(mesh, voxels, params, grid, progress, roughness=None):
                     grid.to_index(vertices[faces[near_moved]].mean(axis=1)), voxels[0].field)
             vertices, folded = vertex_projection.unfold(smoothed, faces, reference)
         if folded:
-            progress.note(f"{folded} faces stay folded (turned against the surface or without area)")
+            progress.note(f"{folded} {'face stays' if folded == 1 else 'faces stay'} folded (turned against the "
+                          "surface or without area)")
     return vertices[inverse]
 
 
