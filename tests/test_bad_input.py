@@ -435,6 +435,18 @@ def test_a_process_memory_limit_is_respected(files, tmp_path):
     assert os.listdir(tmp_path) == []
 
 
+def test_a_deleted_current_folder_is_named_as_the_cause(files, tmp_path):
+    gone = tmp_path / "gone"
+    gone.mkdir()
+    r = subprocess.run(["bash", "-c", f'cd "{gone}" && rmdir "{gone}" && "{sys.executable}" -m skelfilter.cli '
+                                      f'denoise "{files / "cube.ply"}" out.ply'], capture_output=True, text=True,
+                       timeout=300)
+    lines = [line for line in r.stderr.splitlines() if line.strip()]
+    assert r.returncode == 2 and lines == ["skelfilter: error: the current folder no longer exists (it was deleted "
+                                           "or moved): run from an existing folder, or give absolute paths"], r.stderr
+    assert os.listdir(tmp_path) == []
+
+
 def test_library_warnings_are_one_line_or_silent(capsys):
     import logging
     import warnings

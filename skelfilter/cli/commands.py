@@ -383,6 +383,14 @@ def _interrupt_behind(exc):
     return None
 
 
+def _current_folder_gone():
+    try:
+        os.getcwd()
+    except FileNotFoundError:
+        return True
+    return False
+
+
 def _exit_status(exc):
     exc = _interrupt_behind(exc) or exc
     if isinstance(exc, SystemExit):
@@ -396,6 +404,9 @@ def _exit_status(exc):
         message, status = "interrupted", 130
     elif isinstance(exc, SkelfilterError):
         message, status = f"error: {_in_cli_terms(str(exc))}", 2
+    elif isinstance(exc, FileNotFoundError) and _current_folder_gone():
+        message, status = ("error: the current folder no longer exists (it was deleted or moved): run from an "
+                           "existing folder, or give absolute paths"), 2
     elif isinstance(exc, OSError):  # what the system refused, where no step said it better
         where = f" ({exc.filename})" if exc.filename else ""
         message, status = f"error: {(exc.strerror or str(exc) or type(exc).__name__).lower()}{where}", 2
