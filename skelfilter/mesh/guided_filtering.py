@@ -27,7 +27,7 @@ References
 import numpy as np
 from numba import njit, prange
 
-from skelfilter.mesh.normal_filtering import face_edges, spatial_weights, weighted_average
+from skelfilter.mesh.normal_filtering import face_edges, spatial_weights, squared_difference, weighted_average
 
 # Normal differences below this (about 6 degrees) count as flat in `flat_share`.
 FLAT_DIFFERENCE = 0.1
@@ -63,8 +63,7 @@ def neighbour_lists(pairs, m):
 
 @njit(cache=True, inline="always")
 def _difference(normals, a, b):
-    return ((normals[a, 0] - normals[b, 0]) ** 2 + (normals[a, 1] - normals[b, 1]) ** 2
-            + (normals[a, 2] - normals[b, 2]) ** 2) ** 0.5
+    return squared_difference(normals, a, b) ** 0.5
 
 
 @njit(cache=True, inline="always")

@@ -117,6 +117,13 @@ def weighted_average(normals, areas, pairs, static, range_normals, sigma_r):
     return normalize(summed)
 
 
+@njit(cache=True, inline="always")
+def squared_difference(vectors, a, b):
+    """``|vectors[a] - vectors[b]|^2`` of two rows of a (n, 3) array, in compiled kernels."""
+    return ((vectors[a, 0] - vectors[b, 0]) ** 2 + (vectors[a, 1] - vectors[b, 1]) ** 2
+            + (vectors[a, 2] - vectors[b, 2]) ** 2)
+
+
 @njit(cache=True)
 def _add_bilateral(summed, i, j, static, normals, range_normals, sigma_r):
     """``summed[i] += static * W_r(|range_normals[i] - range_normals[j]|) * normals[j]`` over the pairs,
@@ -124,11 +131,7 @@ def _add_bilateral(summed, i, j, static, normals, range_normals, sigma_r):
     scale = 2.0 * sigma_r * sigma_r
     for p in range(len(i)):
         a, b = i[p], j[p]
-        difference = 0.0
-        for axis in range(3):
-            d = range_normals[a, axis] - range_normals[b, axis]
-            difference += d * d
-        weight = static[p] * np.exp(-difference / scale)
+        weight = static[p] * np.exp(-squared_difference(range_normals, a, b) / scale)
         for axis in range(3):
             summed[a, axis] += weight * normals[b, axis]
 
@@ -212,12 +215,8 @@ def _smallest_difference(i, j, normals):
     """Per face, the smallest ``|normals[i] - normals[j]|`` over its pairs (infinite without any)."""
     smallest = np.full(len(normals), np.inf)
     for p in range(len(i)):
-        a, b = i[p], j[p]
-        difference = 0.0
-        for axis in range(3):
-            d = normals[a, axis] - normals[b, axis]
-            difference += d * d
-        smallest[a] = min(smallest[a], np.sqrt(difference))
+        a = i[p]
+        smallest[a] = min(smallest[a], np.sqrt(squared_difference(normals, a, j[p])))
     return smallest
 
 
