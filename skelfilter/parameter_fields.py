@@ -13,11 +13,15 @@ ABSOLUTE = "absolute"  # a length in voxels of the grid
 RELATIVE = "relative"  # a fraction of the longest side of the model's bounding box
 
 
-def parameter(default, label, help, unit="", choices=None, measure="", limits=None, applies=None):
+def parameter(default, label, help, unit="", choices=None, measure="", limits=None, applies=None, summary=None):
     """A parameter: ``label`` is MeshLab's short name for it, ``help`` its description, ``limits``
     the closed range ``(low, high)`` of a number (checked by `check_limits`), ``applies`` where it
-    takes effect, ``{other field: its values}`` (any one of them; checked by `check_applies`)."""
+    takes effect, ``{other field: its values}`` (any one of them; checked by `check_applies`).
+    ``summary``, in plain words with units, marks one of the few parameters most users set: the CLI's
+    ``--help`` shows those, ``--help-all`` every one."""
     meta = {"label": label, "help": help, "unit": unit, "measure": measure}
+    if summary is not None:
+        meta["summary"] = summary
     if choices is not None:
         meta["choices"] = tuple(choices)
     if limits is not None:

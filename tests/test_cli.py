@@ -137,3 +137,25 @@ def test_flags_come_from_the_parameter_dataclass():
     args = parser.parse_args(["noise", "a.obj", "b.obj", "--p", "0.02", "--l", "1", "--dents"])
     noise = commands._params(commands.ADD_SKELETON_NOISE, args)
     assert (noise.p, noise.l, noise.dents) == (0.02, 1, True)
+
+
+@pytest.mark.parametrize("command", ["denoise", "batch"])
+def test_help_shows_the_common_flags_in_plain_words_and_help_all_every_parameter(command, capsys):
+    with pytest.raises(SystemExit) as done:
+        commands.build_parser().parse_args([command, "--help"])
+    assert done.value.code == 0
+    short = capsys.readouterr().out
+    assert len(short.splitlines()) <= 60
+    assert "--resolution" in short and "in voxels" in short and "--help-all" in short
+    assert "--threshold" not in short and "eq. 5.6" not in short
+    assert commands.run([command, "--help-all"]) == 0
+    full = capsys.readouterr().out
+    assert "--threshold" in full and "eq. 5.6" in full and "advanced parameters" in full
+    if command == "denoise":
+        assert "--save-skeleton" in full and "--save-skeleton" not in short
+
+
+def test_hidden_flags_still_take_effect(cube_file, tmp_path):
+    out = tmp_path / "out.ply"
+    assert commands.run(["denoise", str(cube_file), str(out), "--threshold", "0", "--quiet"]) == 2
+    assert not out.exists()

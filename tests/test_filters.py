@@ -84,7 +84,7 @@ def test_cli_flags_and_meshset_signatures_come_from_the_descriptions():
         names = {p.name for p in d.parameters}
         assert names <= _flags(sub[d.command])
         assert _flags(sub[d.command]) - names <= {"save_skeleton", "progress", "close", "points", "label", "iso",
-                                                  "spacing"}
+                                                  "spacing", "help_all"}
         assert _flags(export[d.command]) == names
         signature = inspect.signature(getattr(meshset, d.python_name))
         assert [(q.name, q.default) for q in list(signature.parameters.values())[1:]] == [

@@ -59,16 +59,25 @@ def _flag(name):
     return "--" + name.replace("_", "-")
 
 
-def _add_filter_flags(parser, description):
+def _add_filter_flags(parser, description, full_help=True):
+    """The filter's parameters as flags. Where some parameters have a summary (the few most users
+    set) and ``full_help`` is off, those are shown in their plain words and the others hidden from
+    ``--help`` (they still work; ``--help-all`` shows them)."""
+    short = not full_help and any(p.summary for p in description.parameters)
+    advanced = parser if not short and not any(p.summary for p in description.parameters) else \
+        parser.add_argument_group("advanced parameters (the thesis' method, §8.1; `skelfilter filters` "
+                                  "describes them too)")
     for p in description.parameters:
-        help_text = p.full_tooltip
-        if p.default is not None:
-            help_text += f" (default: {p.default})"
+        if short:
+            help_text = p.summary or argparse.SUPPRESS
+        else:
+            help_text = p.full_tooltip + (f" (default: {p.default})" if p.default is not None else "")
+        group = parser if p.summary else advanced
         if p.value_type is bool:
-            parser.add_argument(_flag(p.name), dest=p.name, action=argparse.BooleanOptionalAction,
-                                default=None, help=help_text)
+            group.add_argument(_flag(p.name), dest=p.name, action=argparse.BooleanOptionalAction,
+                               default=None, help=help_text)
             continue
-        parser.add_argument(
+        group.add_argument(
             _flag(p.name),
             dest=p.name,
             type=p.value_type,
@@ -77,6 +86,9 @@ def _add_filter_flags(parser, description):
             metavar=None if p.choices else p.name.upper(),
             help=help_text,
         )
+    if any(p.summary for p in description.parameters):
+        parser.add_argument("--help-all", action="store_true",
+                            help="show this help with every parameter, in the thesis' terms, and exit")
 
 
 def _params(description, args):
@@ -85,7 +97,8 @@ def _params(description, args):
     return description.params_class(**given)
 
 
-def build_parser():
+def build_parser(full_help=False):
+    """The CLI's parser; ``full_help``: ``--help`` lists every parameter (what ``--help-all`` asks)."""
     parser = _Parser(
         prog="skelfilter",
         description="Remove small-scale bumps and dents from meshes by pruning the surface skeleton.",
@@ -98,13 +111,14 @@ def build_parser():
                      "modified")
     den.add_argument("output", help="output mesh, or for a volume input a volume (the input's grid, header "
                      "and affine) or a mesh in the scanner's world coordinates; written atomically")
-    _add_filter_flags(den, SKELETON_SALIENCY_DENOISE)
+    _add_filter_flags(den, SKELETON_SALIENCY_DENOISE, full_help)
     den.add_argument("--close", action="store_true", help="write a new watertight mesh of the denoised "
                      "solid (marching cubes), the same as --output-mesh closed")
     den.add_argument("--points", action="store_true", help="for a point cloud input: write its points moved "
                      "onto the denoised surface, with their attributes (PLY, PCD, XYZ), not the mesh")
-    den.add_argument("--save-skeleton", metavar="FILE", help="write the skeleton voxels as a PLY point "
-                     "cloud with per-point D, rho, sigma_bar, rho_plus (quality = rho_plus)")
+    den.add_argument("--save-skeleton", metavar="FILE", help=argparse.SUPPRESS if not full_help else
+                     "write the skeleton voxels as a PLY point cloud with per-point D, rho, sigma_bar, "
+                     "rho_plus (quality = rho_plus)")
     _add_volume_flags(den)
     _add_display_flags(den)
 
@@ -127,7 +141,7 @@ def build_parser():
                      "the input's)")
     bat.add_argument("--force", action="store_true", help="redo files whose output exists (default: skip "
                      "them; outputs are written atomically, so one that exists is complete)")
-    _add_filter_flags(bat, SKELETON_SALIENCY_DENOISE)
+    _add_filter_flags(bat, SKELETON_SALIENCY_DENOISE, full_help)
     _add_volume_flags(bat)
     _add_display_flags(bat)
 
@@ -358,7 +372,8 @@ def run(argv=None):
     try:
         try:
             signals.unblock()
-            args = build_parser().parse_args(argv)
+            argv, full_help = _help_all(sys.argv[1:] if argv is None else list(argv))
+            args = build_parser(full_help).parse_args(argv)
             _route_library_messages(getattr(args, "progress", None) is False)
             memory.return_freed_memory()
             if args.command != "denoise":  # denoise starts them only once it has something to do
@@ -369,6 +384,14 @@ def run(argv=None):
             signals.ignore_from_now()
     except BaseException as exc:  # noqa: BLE001 - each kind gets its line below; the rest is re-raised
         return _exit_status(exc)
+
+
+def _help_all(argv):
+    """``argv`` with ``--help-all`` (before any ``--``) made ``--help``, and whether it was there."""
+    end = argv.index("--") if "--" in argv else len(argv)
+    if "--help-all" not in argv[:end]:
+        return argv, False
+    return [("--help" if a == "--help-all" and i < end else a) for i, a in enumerate(argv)], True
 
 
 def _interrupt_behind(exc):

@@ -47,6 +47,7 @@ class FilterParameter:
     choices: tuple  # the entries of a RichEnum
     optional: bool  # None allowed in Python (written 0 in MeshLab)
     limits: tuple = None  # closed range of a number (parameter_fields.check_limits)
+    summary: str = None  # plain words for the CLI's short help; None: shown by --help-all only
 
     @property
     def full_tooltip(self):
@@ -112,6 +113,7 @@ def describe_parameters(params_class):
             choices=meta.get("choices", ()),
             optional=type(None) in typing.get_args(f.type),
             limits=meta.get("limits"),
+            summary=meta.get("summary"),
         ))
     return tuple(out)
 

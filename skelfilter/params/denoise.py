@@ -1,19 +1,6 @@
-"""The filter parameters, in one place.
-
-Every parameter is a dataclass field whose metadata carries what MeshLab shows
-of a filter parameter: a short label, a description (the tooltip and the CLI
-help), its unit, its choices and, for lengths and thresholds, whether the value
-is absolute (voxels) or relative to the model's size. :mod:`skelfilter.meshlab.descriptions`
-builds the MeshLab-style filter descriptions from these dataclasses, and the CLI
-flags, the Python and MeshSet defaults, the .mlx scripts and ``docs/filters.md``
-derive from those.
-
-The presets (:mod:`skelfilter.presets`) fill the fields left unset (``None``, or ``"preset"`` for a
-choice).
-"""
+"""The skeleton saliency denoiser's parameters (`DenoiseParams`) and which of them a mesh reads."""
 
 import math
-import numbers
 from dataclasses import dataclass, fields, replace
 
 import numpy as np
@@ -37,6 +24,8 @@ class DenoiseParams:
         "t = 18 voxels, rho+ by eq. 5.6 over every neighbour) or 'thesis-tuned' (the same with rho+ "
         "taken from the neighbours ahead along v and no derivative below rho = 7 voxels, as the default)",
         choices=tuple(PRESETS),
+        summary=("the method's main choices: 'default', or the thesis' pipeline as printed ('thesis') or "
+                 "tuned ('thesis-tuned')"),
     )
     resolution: int | None = _p(
         None,
@@ -46,6 +35,8 @@ class DenoiseParams:
         "mesh's mean edge length, within 96-256; lowered to fit in memory",
         "voxels",
         limits=(16, 4096),
+        summary=("voxels along the longest side of the grid the skeleton is computed on (default: chosen "
+                 "from the mesh, 96-256)"),
     )
     output_mesh: str = _p(
         "preset",
@@ -59,6 +50,8 @@ class DenoiseParams:
         "covered in noise at the skeleton's scale, else 'input' with the fine pass only; "
         "'preset': the preset's (default: auto; thesis: closed)",
         choices=("preset", "auto", "input", "closed"),
+        summary=("'auto' (default): the input mesh with its vertices moved, or a new closed mesh for a "
+                 "solid covered in noise; 'input'; 'closed'"),
     )
     fine_pass: str = _p(
         "preset",
@@ -71,6 +64,8 @@ class DenoiseParams:
         "measures noisy (a mesh: its surface roughness) or the voxel stage moved vertices; 'on': always; "
         "'off': never; 'preset': the preset's (default: auto; thesis: off)",
         choices=("preset", "auto", "on", "off"),
+        summary=("smooth the noise smaller than a voxel, keeping edges: 'auto' (default: where the input "
+                 "has such noise), 'on', 'off'"),
     )
     normal_filter: str = _p(
         "adaptive",
@@ -140,6 +135,8 @@ class DenoiseParams:
         "voxels",
         measure=ABSOLUTE,
         limits=(0.01, 10000),
+        summary=("the height of the noise to remove, in voxels: removed bumps and dents up to it stay "
+                 "removed, taller parts come back as features (default: measured on the input)"),
     )
     k: float = _p(
         0.9, "Derivative threshold k",
@@ -386,59 +383,3 @@ def voxel_fields_given(params):
     if "threshold" in given and "threshold_relative" in given:  # a threshold in voxels clears the relative one
         given.remove("threshold_relative")
     return given
-
-
-@dataclass(frozen=True)
-class NoiseParams:
-    """Parameters of the thesis' noise model (§7.2)."""
-
-    p: float = _p(
-        0.014, "Incidence p", "incidence: probability that a surface voxel starts a protrusion", "probability",
-        limits=(0, 1),
-    )
-    r: float = _p(2.1, "Kernel radius r", "radius of the spherical noise kernel (eq. 7.13)", "voxels",
-                  measure=ABSOLUTE, limits=(0.01, 1000))
-    h: int = _p(3, "Height h", "height of the protrusion along the normal (eq. 7.14)", "voxels",
-                measure=ABSOLUTE, limits=(0, 1000))
-    l: int = _p(
-        6, "Walk length l", "length of the random surface walk; 1 gives isolated bumps (eq. 7.15-7.16)",
-        "steps", limits=(1, 100_000),
-    )
-    seed: int = _p(0, "Random seed", "random seed; equal seeds give equal noise", limits=(0, 2**32 - 1))
-    dents: bool = _p(False, "Dents", "also carve dents inward, at independently drawn sites")
-    resolution: int = _p(160, "Resolution", "voxels along the longest side of the bounding box", "voxels",
-                         limits=(16, 4096))
-
-    def __post_init__(self):
-        check_limits(self)
-        if not isinstance(self.dents, bool):
-            raise ParameterError(f"dents must be true or false, got {self.dents!r}")
-
-    @property
-    def padding_voxels(self):
-        """Room left around the shape so protrusions never reach the border."""
-        return int(math.ceil(self.h + self.r)) + 10
-
-
-@dataclass(frozen=True)
-class VolumeParams:
-    """How a volume file becomes the shape to denoise (``skelfilter denoise`` and ``batch`` on NIfTI,
-    NRRD, TIFF and .npy files)."""
-
-    label: int | None = _p(None, "Label", "denoise the voxels of this label of a label map; the other labels "
-                           "stay as they are", limits=(-2**63, 2**63 - 1))
-    iso: float | None = _p(None, "Iso level", "denoise the voxels at or above this grey level of an image",
-                           "grey level", limits=(-1e308, 1e308))
-    spacing: tuple | None = _p(None, "Spacing", "voxel size along the three axes, replacing the file's (a .npy "
-                               "file has none: unit voxels)", "world units")
-
-    def __post_init__(self):
-        check_limits(self)
-        if self.label is not None and self.iso is not None:
-            raise ParameterError("give label or iso, not both")
-        if self.spacing is not None:
-            spacing = tuple(self.spacing)
-            if len(spacing) != 3 or not all(isinstance(s, numbers.Real) and not isinstance(s, (bool, np.bool_))
-                                            and math.isfinite(s) and 0 < s <= 1e6 for s in spacing):
-                raise ParameterError(f"spacing must be three numbers in (0, 1e6], got {self.spacing!r}")
-            object.__setattr__(self, "spacing", tuple(float(s) for s in spacing))

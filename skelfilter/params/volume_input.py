@@ -1,0 +1,35 @@
+"""How a volume file becomes the shape to denoise (`VolumeParams`)."""
+
+import math
+import numbers
+from dataclasses import dataclass
+
+import numpy as np
+
+from skelfilter.errors import ParameterError
+from skelfilter.parameter_fields import check_limits
+from skelfilter.parameter_fields import parameter as _p
+
+
+@dataclass(frozen=True)
+class VolumeParams:
+    """How a volume file becomes the shape to denoise (``skelfilter denoise`` and ``batch`` on NIfTI,
+    NRRD, TIFF and .npy files)."""
+
+    label: int | None = _p(None, "Label", "denoise the voxels of this label of a label map; the other labels "
+                           "stay as they are", limits=(-2**63, 2**63 - 1))
+    iso: float | None = _p(None, "Iso level", "denoise the voxels at or above this grey level of an image",
+                           "grey level", limits=(-1e308, 1e308))
+    spacing: tuple | None = _p(None, "Spacing", "voxel size along the three axes, replacing the file's (a .npy "
+                               "file has none: unit voxels)", "world units")
+
+    def __post_init__(self):
+        check_limits(self)
+        if self.label is not None and self.iso is not None:
+            raise ParameterError("give label or iso, not both")
+        if self.spacing is not None:
+            spacing = tuple(self.spacing)
+            if len(spacing) != 3 or not all(isinstance(s, numbers.Real) and not isinstance(s, (bool, np.bool_))
+                                            and math.isfinite(s) and 0 < s <= 1e6 for s in spacing):
+                raise ParameterError(f"spacing must be three numbers in (0, 1e6], got {self.spacing!r}")
+            object.__setattr__(self, "spacing", tuple(float(s) for s in spacing))
