@@ -1,26 +1,38 @@
 # Two commands on a fresh machine:
-#   make demo   install everything, then denoise the embedded sample (fandisk with synthetic stripes)
+#   make demo   install skelfilter alone, then denoise the embedded sample (fandisk with synthetic stripes)
 #   make test   install everything, then run the test suite
 PYTHON ?= python3
 PIP ?= $(PYTHON) -m pip
 
-.PHONY: setup demo test lint bench docs
+.PHONY: setup setup-demo demo test lint bench docs
 
-# System libraries the wheels need: libusb-1.0-0 (open3d links against it), libosmesa6 (pyvista/VTK
-# draw the comparison's pictures off-screen on the CPU); chromium (the test that opens the report).
-SYSTEM_PACKAGES = libusb-1.0-0 libosmesa6 chromium
+# System libraries the wheels need: libusb-1.0-0 (open3d links against it; the demo needs only this
+# one), libosmesa6 (pyvista/VTK draw the comparison's pictures off-screen on the CPU) and chromium (the
+# test that opens the report in a browser).
+DEMO_SYSTEM_PACKAGES = libusb-1.0-0
+SYSTEM_PACKAGES = $(DEMO_SYSTEM_PACKAGES) libosmesa6 chromium
 
-setup:
-	@missing=$$(for p in $(SYSTEM_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
+# $(call system_packages,LIST): apt-get install those of LIST that are missing.
+define system_packages
+	@missing=$$(for p in $(1); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
 	if [ -n "$$missing" ]; then \
 		echo "installing system packages:" $$missing; \
 		SUDO=$$( [ "$$(id -u)" -eq 0 ] || echo sudo ); \
 		$$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq $$missing; \
 	fi
+endef
+
+setup:
+	$(call system_packages,$(SYSTEM_PACKAGES))
 	$(PIP) install -q -e '.[test]'
 	$(PYTHON) -m skelfilter.cli.warm_up
 
-demo: setup
+setup-demo:
+	$(call system_packages,$(DEMO_SYSTEM_PACKAGES))
+	$(PIP) install -q -e .
+	$(PYTHON) -m skelfilter.cli.warm_up
+
+demo: setup-demo
 	$(PYTHON) -m skelfilter.demo --out demo-output
 
 test: setup
