@@ -39,6 +39,7 @@ from scipy import ndimage, stats
 
 from skelfilter.core import pipeline, skeleton, stage
 from skelfilter.core.distance import distance_and_features
+from skelfilter.core.neighbourhood import unravel
 from skelfilter.core.reconstruct import union_of_balls
 from skelfilter.evaluation import metrics
 from skelfilter.mesh import pipeline as mesh_pipeline
@@ -92,14 +93,67 @@ def auc(values, positive):
     return float(max(area, 1.0 - area))
 
 
-def separability(noisy, fg, resolution):
-    """AUC of ρ, D and ρ/D on the foreground balls' labels."""
-    centres, radii, _, noise = fg
+def signed_distance(mask):
+    """Euclidean distance to the complement inside ``mask`` (> 0), minus the distance to ``mask`` outside."""
+    return ndimage.distance_transform_edt(mask) - ndimage.distance_transform_edt(~mask)
+
+
+RADIUS_BINS = (1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0, 24.0, 32.0)  # voxels
+REFERENCE_SMOOTHING = 2.0  # voxels: sigma of the Gaussian whose 1/2 level is the smooth reference surface
+
+
+def protrusion_beyond_larger(shape, centres, radii):
+    """Voxels each ball stands beyond the union of the balls of a larger radius bin (`RADIUS_BINS`):
+    ``r - sd(c)``, ``sd`` the signed distance to that union; the additive scale-axis coverage (a ball is
+    covered by the larger balls grown by its protrusion)."""
+    out = np.empty(len(radii))
+    edges = (0.0, *RADIUS_BINS, np.inf)
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        here = (radii >= lo) & (radii < hi)
+        if not here.any():
+            continue
+        larger = radii >= hi
+        if not larger.any():
+            out[here] = 2 * radii[here]
+            continue
+        union = union_of_balls(shape, centres[larger], radii[larger])[0]
+        out[here] = radii[here] - signed_distance(union).reshape(-1)[centres[here]]
+    return out
+
+
+def measures(noisy, fg, resolution):
+    """Per-ball candidate measures of the foreground balls ``fg`` (`labelled_balls`): name -> array."""
+    centres, radii = fg[0], fg[1]
     params = DenoiseParams(resolution=resolution)
     fields = stage.skeleton_fields(noisy, params, Progress(enabled=False))
-    order = np.searchsorted(fields.voxels, centres)
-    rho = fields.rho[order].astype(np.float64)
-    return {"rho": auc(rho, noise), "radius": auc(radii, noise), "rho_over_radius": auc(rho / radii, noise)}
+    a_flat, b_flat = fields.a_flat, fields.b_flat
+    data = stage.pruned_stage(noisy, fields.copy(), params, Progress(enabled=False)).skeleton
+    order = np.searchsorted(data.voxels, centres)
+    found = data.voxels[np.minimum(order, len(data.voxels) - 1)] == centres
+    assert found.all(), "the oracle's balls are the stage's skeleton"
+    take = lambda values: values[order].astype(np.float64)  # noqa: E731
+    rho = take(data.rho)
+    feature_span = np.linalg.norm(unravel(a_flat, noisy.shape) - unravel(b_flat, noisy.shape), axis=1)
+    reference = ndimage.gaussian_filter(noisy.astype(np.float32), REFERENCE_SMOOTHING) >= 0.5
+    beyond_larger = protrusion_beyond_larger(noisy.shape, centres, radii)
+    height = radii - signed_distance(reference).reshape(-1)[centres]
+    return {
+        "rho": rho, "radius": radii, "rho_over_radius": rho / radii,
+        "rho_plus": take(data.rho_plus), "sigma_bar": np.nan_to_num(take(data.sigma_bar), nan=-1.0),
+        "lambda": take(feature_span) / 2,
+        "beyond_larger": beyond_larger, "beyond_larger_over_radius": beyond_larger / radii,
+        "height_above_smooth": height,
+    }
+
+
+def separability(noisy, fg, resolution):
+    """AUC of every candidate measure (`measures`) on the foreground balls' two labels: protruding more
+    than `PROTRUSION` beyond the clean shape (``auc``), and centred outside it (``auc_outside``: the balls
+    the oracle drops; the others it keeps with their radius capped)."""
+    values = measures(noisy, fg, resolution)
+    outside = fg[2] <= 0
+    return ({name: auc(v, fg[3]) for name, v in values.items()},
+            {name: auc(v, outside) for name, v in values.items()})
 
 
 def scores(out, noise, thin):
@@ -127,7 +181,8 @@ def run_case(shape, kind, seed, resolution, with_default):
     row = {"case": case.name, "split": case.split, "oracle_s": time.perf_counter() - start,
            "clean_genus": metrics.voxel_genus(noise.clean)["genus"], "balls": int(len(fg[0])),
            "noise_balls": int(fg[3].sum()), "oracle": scores(out, noise, thin),
-           "auc": separability(noise.noisy, fg, resolution)}
+           "outside_balls": int((fg[2] <= 0).sum())}
+    row["auc"], row["auc_outside"] = separability(noise.noisy, fg, resolution)
     if with_default:
         mask = pipeline.denoise_volume(noise.noisy, DenoiseParams(resolution=resolution)).mask
         row["default"] = scores(mask, noise, thin)
@@ -139,8 +194,11 @@ def _line(row):
     text = (f"{row['case']:28s} {row['split']:9s} oracle: noise left {o['noise_left']:.3f} (bumps "
             f"{o['bumps_left']:.3f}, dents {o['dents_left']:.3f}), clean lost {100 * o['clean_lost']:.2f} %, thin kept "
             f"{o['thin_kept']:.3f}, error ratio {o['error_ratio']:.3f}, genus {o['genus']} (clean "
-            f"{row['clean_genus']}), {row['oracle_s']:.1f} s | AUC rho {a['rho']:.3f}, D {a['radius']:.3f}, "
-            f"rho/D {a['rho_over_radius']:.3f} ({row['noise_balls']} of {row['balls']} balls noise)")
+            f"{row['clean_genus']}), {row['oracle_s']:.1f} s | AUC "
+            + ", ".join(f"{name} {value:.3f}" for name, value in a.items())
+            + f" ({row['noise_balls']} of {row['balls']} balls noise) | AUC centre outside "
+            + ", ".join(f"{name} {value:.3f}" for name, value in row["auc_outside"].items())
+            + f" ({row['outside_balls']} balls)")
     if "default" in row:
         d = row["default"]
         text += (f" | default: noise left {d['noise_left']:.3f}, clean lost {100 * d['clean_lost']:.2f} %, "
@@ -168,8 +226,10 @@ def summary(rows):
                 f"{_median(part, 'oracle', 'thin_kept'):.3f}, "
                 f"error ratio {_median(part, 'oracle', 'error_ratio'):.3f}, "
                 f"genus equal to the clean shape's on {sum(r['oracle']['genus'] == r['clean_genus'] for r in part)} "
-                f"of {len(part)}; AUC rho {_median(part, 'auc', 'rho'):.3f}, D {_median(part, 'auc', 'radius'):.3f}, "
-                f"rho/D {_median(part, 'auc', 'rho_over_radius'):.3f}")
+                f"of {len(part)}; AUC medians "
+                + ", ".join(f"{name} {_median(part, 'auc', name):.3f}" for name in part[0]["auc"])
+                + "; AUC medians, centre outside: "
+                + ", ".join(f"{name} {_median(part, 'auc_outside', name):.3f}" for name in part[0]["auc"]))
         if all("default" in r for r in part):
             text += f"; default noise left {_median(part, 'default', 'noise_left'):.3f}"
         lines.append(text)

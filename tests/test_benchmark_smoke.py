@@ -94,3 +94,15 @@ def test_auc_against_counting_pairs():
     pairs = [(p > n) + 0.5 * (p == n) for p in values[positive] for n in values[~positive]]
     assert ball_oracle.auc(values, positive) == pytest.approx(np.mean(pairs))
     assert ball_oracle.auc(-values, positive) == pytest.approx(np.mean(pairs))  # turned around
+
+
+def test_protrusion_beyond_larger_balls_is_the_height_a_ball_stands_out():
+    shape = (48, 48, 48)
+    flat = lambda *ijk: np.ravel_multi_index(ijk, shape)  # noqa: E731
+    centres = np.array([flat(24, 24, 24), flat(24, 24, 37), flat(24, 24, 30)])
+    radii = np.array([12.0, 2.0, 2.0])  # a big ball, a small one standing on it, one inside it
+    out = ball_oracle.protrusion_beyond_larger(shape, centres, radii)
+    # the big ball's union ends 12 voxels from its centre (to within a voxel on the grid)
+    assert abs(out[1] - (37 + 2 - 24 - 12)) <= 1.0
+    assert out[2] < 0
+    assert out[0] == 2 * radii[0]  # nothing larger: it stands out by its whole size
