@@ -1,0 +1,183 @@
+"""An experiment: how far a learned per-ball decision gets towards the per-ball oracle (`ball_oracle`).
+
+    pip install scikit-learn     # the experiment's own need; skelfilter does not depend on it
+    python benchmarks/learned_ball_decision.py features --cases fandisk:stripes ... [--dir FOLDER]
+    python benchmarks/learned_ball_decision.py train [--dir FOLDER]
+    python benchmarks/learned_ball_decision.py evaluate --cases gear:stripes ... [--dir FOLDER]
+
+``features`` writes, per case (a benchmark shape and a noise kind of `quality.NOISE_KINDS`, seed 1,
+160 voxels), every IE-skeleton ball of both sides of the noisy shape (foreground; the background
+bounded by the grid's outer layer) with its measures: D, rho, rho+, sigma_bar, lambda (half the span of
+its two feature points), whether the default's pruning keeps it, the signed distance of its centre to
+the default's pruned reconstruction and to the noisy shape smoothed by Gaussians of 1, 2 and 3 voxels,
+the noise estimate's height; and its labels: the clean distance at its centre (the ball is *dropped*
+by the oracle where it is 0).
+
+``train`` fits gradient-boosted trees on the tuning shapes' cases found in ``--dir``: a classifier of
+dropped balls and a regressor of the clean radius (the oracle's cap) of the others.
+
+``evaluate`` prints, per case, the classifier's AUC on each side and the scores (`ball_oracle.scores`)
+of the output the model gives, built as the oracle's is: kept foreground balls (radius capped at the
+predicted clean radius) united with the background voxels no kept background ball covers; and the
+same without the cap.
+"""
+
+import argparse
+import os
+import pickle
+import sys
+
+import ball_oracle
+import numpy as np
+import quality
+import shapes
+from scipy import ndimage
+
+from skelfilter.core import noise_estimate, stage
+from skelfilter.core.neighbourhood import unravel
+from skelfilter.core.reconstruct import union_of_balls
+from skelfilter.evaluation import metrics
+from skelfilter.mesh import pipeline as mesh_pipeline
+from skelfilter.params import DenoiseParams
+from skelfilter.runtime.progress import Progress
+
+RESOLUTION = 160
+SMOOTHING = (1.0, 2.0, 3.0)  # voxels: the Gaussians whose 1/2 level gives reference surfaces
+MEASURES = ("r", "rho", "rho_plus", "sigma_bar", "lambda", "kept", "sd_core", "sd_smooth1", "sd_smooth2",
+            "sd_smooth3", "noise_height", "noise_found")
+TRAINING_BALLS = 1_500_000  # drawn at random from the tuning cases
+
+
+def _case(text):
+    shape, _, kind = text.partition(":")
+    if shape not in shapes.SHAPES or kind not in quality.NOISE_KINDS:
+        raise argparse.ArgumentTypeError(f"a case is SHAPE:KIND, got {text!r}")
+    return shape, kind
+
+
+def _noise(shape, kind):
+    case = quality.Case(shape, kind, 1)
+    return case, mesh_pipeline.noisy_mesh(shapes.load(shape), case.noise(RESOLUTION))[1]
+
+
+def side_measures(side, clean_side, estimate_side):
+    """The balls of the set ``side``: centres, their measures (name -> array) and clean distances."""
+    params = DenoiseParams(resolution=RESOLUTION)
+    fields = stage.skeleton_fields(side, params, Progress(enabled=False))
+    a_flat, b_flat = fields.a_flat, fields.b_flat
+    pruned = stage.pruned_stage(side, fields.copy(), params, Progress(enabled=False))
+    data, centres = pruned.skeleton, pruned.skeleton.voxels
+    estimate = noise_estimate.estimate_noise(side, pruned.mask, RESOLUTION, estimate_side)
+    values = {
+        "r": data.distance, "rho": data.rho, "rho_plus": np.nan_to_num(data.rho_plus, nan=-1.0),
+        "sigma_bar": np.nan_to_num(data.sigma_bar, nan=-1.0),
+        "lambda": np.linalg.norm(unravel(a_flat, side.shape) - unravel(b_flat, side.shape), axis=1) / 2,
+        "kept": data.kept, "sd_core": ball_oracle.signed_distance(pruned.mask).reshape(-1)[centres],
+        "noise_height": np.full(len(centres), estimate.height if estimate.found else 0.0),
+        "noise_found": np.full(len(centres), float(estimate.found)),
+    }
+    for sigma in SMOOTHING:
+        reference = ndimage.gaussian_filter(side.astype(np.float32), sigma) >= 0.5
+        values[f"sd_smooth{sigma:g}"] = ball_oracle.signed_distance(reference).reshape(-1)[centres]
+    clean_distance = ndimage.distance_transform_edt(clean_side).reshape(-1)[centres]
+    return centres, {k: np.asarray(v, dtype=np.float64) for k, v in values.items()}, clean_distance
+
+
+def _sides(noise):
+    bounded = ball_oracle.bounded_background
+    return (("fg", noise.noisy, noise.clean, "bumps"),
+            ("bg", bounded(noise.noisy), bounded(noise.clean), "dents"))
+
+
+def features(cases, folder):
+    os.makedirs(folder, exist_ok=True)
+    for shape, kind in cases:
+        _, noise = _noise(shape, kind)
+        saved = {}
+        for name, side, clean_side, estimate_side in _sides(noise):
+            centres, values, clean_distance = side_measures(side, clean_side, estimate_side)
+            saved[f"{name}_centres"], saved[f"{name}_clean_d"] = centres, clean_distance
+            saved.update({f"{name}_f_{k}": v for k, v in values.items()})
+        np.savez_compressed(os.path.join(folder, f"{shape}_{kind}.npz"), **saved)
+        print("measured", shape, kind, flush=True)
+
+
+def load(folder, shape, kind):
+    """Per side: (centres, the model's inputs, clean distances, radii)."""
+    z = np.load(os.path.join(folder, f"{shape}_{kind}.npz"))
+    out = {}
+    for side in ("fg", "bg"):
+        f = {n: z[f"{side}_f_{n}"] for n in MEASURES}
+        r = f["r"]
+        derived = [r - f["sd_core"], r - f["sd_smooth2"], r - f["sd_smooth1"], r - f["sd_smooth3"], f["rho"] / r,
+                   r / np.maximum(f["noise_height"], 1), np.full(len(r), float(side == "bg"))]
+        inputs = np.stack([f[n] for n in MEASURES] + derived, 1).astype(np.float32)
+        out[side] = (z[f"{side}_centres"], inputs, z[f"{side}_clean_d"], r)
+    return out
+
+
+def train(folder):
+    from sklearn.ensemble import HistGradientBoostingClassifier, HistGradientBoostingRegressor
+    cases = [(s, k) for s in sorted(shapes.SHAPES) if s not in quality.HELD_OUT for k in quality.NOISE_KINDS
+             if os.path.exists(os.path.join(folder, f"{s}_{k}.npz"))]
+    print("training on", ", ".join(f"{s}:{k}" for s, k in cases), flush=True)
+    parts = [p for s, k in cases for p in load(folder, s, k).values()]
+    inputs = np.concatenate([p[1] for p in parts])
+    dropped = np.concatenate([p[2] <= 0 for p in parts])
+    cap = np.concatenate([np.minimum(p[2], p[3]) for p in parts])
+    pick = np.random.default_rng(0).choice(len(inputs), min(len(inputs), TRAINING_BALLS), replace=False)
+    trees = dict(max_iter=200, learning_rate=0.1, max_leaf_nodes=63, random_state=0)
+    classifier = HistGradientBoostingClassifier(**trees).fit(inputs[pick], dropped[pick])
+    kept = pick[~dropped[pick]]
+    regressor = HistGradientBoostingRegressor(**trees).fit(inputs[kept], cap[kept])
+    with open(os.path.join(folder, "model.pkl"), "wb") as f:
+        pickle.dump((classifier, regressor), f)
+
+
+def model_output(parts, classifier, regressor, noisy):
+    """The oracle's construction with the model's decisions (``regressor`` None: radii uncapped)."""
+    covered = {}
+    for side in ("fg", "bg"):
+        centres, inputs, _, r = parts[side]
+        drop = classifier.predict_proba(inputs)[:, 1] >= 0.5
+        radii = r if regressor is None else np.minimum(r, np.maximum(regressor.predict(inputs), 0))
+        keep = ~drop & (radii > 0)
+        covered[side] = union_of_balls(noisy.shape, centres[keep], radii[keep])[0]
+    out = covered["fg"] | (~noisy & ~covered["bg"])
+    out[[0, -1], :, :] = out[:, [0, -1], :] = out[:, :, [0, -1]] = False
+    return out
+
+
+def evaluate(cases, folder):
+    with open(os.path.join(folder, "model.pkl"), "rb") as f:
+        classifier, regressor = pickle.load(f)
+    for shape, kind in cases:
+        parts = load(folder, shape, kind)
+        aucs = [ball_oracle.auc(classifier.predict_proba(parts[s][1])[:, 1], parts[s][2] <= 0) for s in ("fg", "bg")]
+        case, noise = _noise(shape, kind)
+        thin = metrics.thin_parts(noise.clean, quality.THIN_RADIUS)
+        for name, reg in (("model", regressor), ("model, radii uncapped", None)):
+            s = ball_oracle.scores(model_output(parts, classifier, reg, noise.noisy), noise, thin)
+            print(f"{case.name:24s} {case.split:9s} {name:22s} AUC fg {aucs[0]:.3f} bg {aucs[1]:.3f} | noise left "
+                  f"{s['noise_left']:.3f} (bumps {s['bumps_left']:.3f}, dents {s['dents_left']:.3f}), clean lost "
+                  f"{100 * s['clean_lost']:.2f} %, thin kept {s['thin_kept']:.3f}, error ratio {s['error_ratio']:.3f}, "
+                  f"genus {s['genus']}", flush=True)
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("step", choices=("features", "train", "evaluate"))
+    parser.add_argument("--cases", nargs="+", type=_case, default=[])
+    parser.add_argument("--dir", default="learned-ball-decision", help="where measures and the model go")
+    args = parser.parse_args(argv)
+    if args.step == "features":
+        features(args.cases, args.dir)
+    elif args.step == "train":
+        train(args.dir)
+    else:
+        evaluate(args.cases, args.dir)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
