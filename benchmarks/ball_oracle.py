@@ -16,12 +16,17 @@ the noise grid, with the clean shape known:
   capped at the clean distance, united with the noisy shape's background voxels that no such
   background ball (centre outside the clean shape, radius capped likewise) covers. No stage order,
   one formulation for bumps and dents.
-- Its scores, in voxels: bumps left, dents left, noise left (both), clean lost (the clean shape
+- The owned oracle's output (`owned_oracle`): each voxel decided by the ball that owns it (the ball
+  tangent at its nearest boundary point, `ray_owners`): the noisy shape less the voxels owned by
+  foreground balls centred outside the clean shape, plus the background voxels owned by background
+  balls centred inside it. No radius is capped and no voxel that no dropped ball owns changes, so it has
+  no coverage gaps.
+- Their scores, in voxels: bumps left, dents left, noise left (both), clean lost (the clean shape
   outside the dents not in the output), thin parts kept (`metrics.thin_parts`), the voxel error over
   the noisy input's, and the genus of the output against the clean shape's.
-- Separability of the foreground balls' labels by each candidate measure: the area under the ROC
-  curve (AUC; 0.5 is chance, 1 separates perfectly; a measure that is *lower* on noise is turned
-  around) of the geodesic importance ρ (eq. 3.2), the radius D, and ρ/D (eq. 3.1).
+- Separability of the foreground balls' labels (protruding; centre outside) by each candidate
+  measure of `measures`: the area under the ROC curve (AUC; 0.5 is chance, 1 separates perfectly; a
+  measure that is *lower* on noise is turned around).
 
 ``--default`` also scores the default pipeline's voxel output (``denoise_volume`` on the noisy mask).
 Rows print as they come; a summary per split (tuning shapes, `quality.HELD_OUT`) follows.
@@ -35,6 +40,7 @@ import time
 import numpy as np
 import quality
 import shapes
+from numba import njit, prange
 from scipy import ndimage, stats
 
 from skelfilter.core import pipeline, skeleton, stage
@@ -80,6 +86,85 @@ def oracle(noisy, clean):
     out = kept_union(*fg[:3]) | (~noisy & ~kept_union(*bg[:3]))
     out[[0, -1], :, :] = out[:, [0, -1], :] = out[:, :, [0, -1]] = False
     return out, fg
+
+
+RAY_TOLERANCE = 1.0  # voxels: how far past the nearest boundary point's ball a ray may go (`ray_owners`)
+
+
+def ray_owners(side):
+    """The skeleton ball that owns each voxel of the set ``side``: the ball tangent at the voxel's
+    nearest boundary point, found by walking from that point through the voxel, voxel by voxel, while
+    the point stays the nearest (to within `RAY_TOLERANCE`); the walk ends at the ball's centre, and the
+    owner is the IE-skeleton voxel within one voxel of where it ends whose ball comes nearest to
+    touching that boundary point (``| |s - f| - D(s) |`` least).
+
+    Returns (flat voxels, owner: index into the centres or -1 where none lies there, centres, radii).
+    """
+    distance, features = distance_and_features(side)
+    centres = skeleton.ie_skeleton(distance)
+    index = np.full(side.size, -1, dtype=np.int64)
+    index[centres] = np.arange(len(centres))
+    voxels = np.flatnonzero(side)
+    owner = _ray_owners(voxels, distance.reshape(-1), features.reshape(-1), index, side.shape, RAY_TOLERANCE)
+    return voxels, owner, centres, distance.reshape(-1)[centres].astype(np.float64)
+
+
+@njit(parallel=True, cache=True)
+def _ray_owners(voxels, distance, features, index, shape, tolerance):
+    nx, ny, nz = shape
+    out = np.full(voxels.size, -1, dtype=np.int64)
+    for k in prange(voxels.size):
+        v = voxels[k]
+        x, y, z = v // (ny * nz), (v // nz) % ny, v % nz
+        f = features[v]
+        fx, fy, fz = f // (ny * nz), (f // nz) % ny, f % nz
+        length = np.sqrt((x - fx) ** 2 + (y - fy) ** 2 + (z - fz) ** 2)
+        ux, uy, uz = (x - fx) / length, (y - fy) / length, (z - fz) / length
+        ex, ey, ez = x, y, z
+        step = 1.0
+        while True:
+            px, py, pz = int(np.rint(x + step * ux)), int(np.rint(y + step * uy)), int(np.rint(z + step * uz))
+            if not (0 <= px < nx and 0 <= py < ny and 0 <= pz < nz):
+                break
+            d = distance[(px * ny + py) * nz + pz]
+            if d <= 0 or np.sqrt((px - fx) ** 2 + (py - fy) ** 2 + (pz - fz) ** 2) - d > tolerance:
+                break
+            ex, ey, ez = px, py, pz
+            step += 1.0
+        best, best_gap = -1, np.inf
+        for i in range(max(ex - 1, 0), min(ex + 2, nx)):
+            for j in range(max(ey - 1, 0), min(ey + 2, ny)):
+                for m in range(max(ez - 1, 0), min(ez + 2, nz)):
+                    q = (i * ny + j) * nz + m
+                    if index[q] < 0:
+                        continue
+                    gap = abs(np.sqrt((i - fx) ** 2 + (j - fy) ** 2 + (m - fz) ** 2) - distance[q])
+                    if gap < best_gap:
+                        best, best_gap = index[q], gap
+        out[k] = best
+    return out
+
+
+def owned_output(noisy, fg_owners, bg_owners, fg_dropped, bg_dropped):
+    """The noisy shape less its voxels owned by a dropped foreground ball, plus its background voxels
+    owned by a dropped background ball (`ray_owners`; ``*_dropped``: a bool per ball). Every voxel
+    no dropped ball owns stays as it is: no coverage gaps."""
+    out = noisy.copy().reshape(-1)
+    for (voxels, owner, _, _), dropped, value in ((fg_owners, fg_dropped, False), (bg_owners, bg_dropped, True)):
+        hit = (owner >= 0) & dropped[np.maximum(owner, 0)]
+        out[voxels[hit]] = value
+    out = out.reshape(noisy.shape)
+    out[[0, -1], :, :] = out[:, [0, -1], :] = out[:, :, [0, -1]] = False
+    return out
+
+
+def owned_oracle(noisy, clean):
+    """`owned_output` with the oracle's drops: the balls centred outside the clean shape (its
+    complement's, for the background)."""
+    fg, bg = ray_owners(noisy), ray_owners(bounded_background(noisy))
+    clean_fg = ndimage.distance_transform_edt(clean).reshape(-1)
+    clean_bg = ndimage.distance_transform_edt(bounded_background(clean)).reshape(-1)
+    return owned_output(noisy, fg, bg, clean_fg[fg[2]] <= 0, clean_bg[bg[2]] <= 0)
 
 
 def auc(values, positive):
@@ -182,6 +267,9 @@ def run_case(shape, kind, seed, resolution, with_default):
            "clean_genus": metrics.voxel_genus(noise.clean)["genus"], "balls": int(len(fg[0])),
            "noise_balls": int(fg[3].sum()), "oracle": scores(out, noise, thin),
            "outside_balls": int((fg[2] <= 0).sum())}
+    start = time.perf_counter()
+    row["owned"] = scores(owned_oracle(noise.noisy, noise.clean), noise, thin)
+    row["owned_s"] = time.perf_counter() - start
     row["auc"], row["auc_outside"] = separability(noise.noisy, fg, resolution)
     if with_default:
         mask = pipeline.denoise_volume(noise.noisy, DenoiseParams(resolution=resolution)).mask
@@ -189,20 +277,22 @@ def run_case(shape, kind, seed, resolution, with_default):
     return row
 
 
+def _scored(name, o, clean_genus):
+    return (f"{name}: noise left {o['noise_left']:.3f} (bumps {o['bumps_left']:.3f}, dents {o['dents_left']:.3f}), "
+            f"clean lost {100 * o['clean_lost']:.2f} %, thin kept {o['thin_kept']:.3f}, error ratio "
+            f"{o['error_ratio']:.3f}, genus {o['genus']} (clean {clean_genus})")
+
+
 def _line(row):
-    o, a = row["oracle"], row["auc"]
-    text = (f"{row['case']:28s} {row['split']:9s} oracle: noise left {o['noise_left']:.3f} (bumps "
-            f"{o['bumps_left']:.3f}, dents {o['dents_left']:.3f}), clean lost {100 * o['clean_lost']:.2f} %, thin kept "
-            f"{o['thin_kept']:.3f}, error ratio {o['error_ratio']:.3f}, genus {o['genus']} (clean "
-            f"{row['clean_genus']}), {row['oracle_s']:.1f} s | AUC "
-            + ", ".join(f"{name} {value:.3f}" for name, value in a.items())
+    g = row["clean_genus"]
+    text = (f"{row['case']:28s} {row['split']:9s} " + _scored("oracle", row["oracle"], g)
+            + f", {row['oracle_s']:.1f} s | " + _scored("owned oracle", row["owned"], g) + f", {row['owned_s']:.1f} s"
+            + " | AUC " + ", ".join(f"{name} {value:.3f}" for name, value in row["auc"].items())
             + f" ({row['noise_balls']} of {row['balls']} balls noise) | AUC centre outside "
             + ", ".join(f"{name} {value:.3f}" for name, value in row["auc_outside"].items())
             + f" ({row['outside_balls']} balls)")
     if "default" in row:
-        d = row["default"]
-        text += (f" | default: noise left {d['noise_left']:.3f}, clean lost {100 * d['clean_lost']:.2f} %, "
-                 f"thin kept {d['thin_kept']:.3f}, genus {d['genus']}")
+        text += " | " + _scored("default", row["default"], g)
     return text
 
 
@@ -221,17 +311,16 @@ def summary(rows):
         part = [r for r in rows if r["split"] == split]
         if not part:
             continue
-        text = (f"{split} ({len(part)} cases), medians: oracle noise left {_median(part, 'oracle', 'noise_left'):.3f}, "
-                f"clean lost {100 * _median(part, 'oracle', 'clean_lost'):.2f} %, thin kept "
-                f"{_median(part, 'oracle', 'thin_kept'):.3f}, "
-                f"error ratio {_median(part, 'oracle', 'error_ratio'):.3f}, "
-                f"genus equal to the clean shape's on {sum(r['oracle']['genus'] == r['clean_genus'] for r in part)} "
-                f"of {len(part)}; AUC medians "
-                + ", ".join(f"{name} {_median(part, 'auc', name):.3f}" for name in part[0]["auc"])
-                + "; AUC medians, centre outside: "
-                + ", ".join(f"{name} {_median(part, 'auc_outside', name):.3f}" for name in part[0]["auc"]))
-        if all("default" in r for r in part):
-            text += f"; default noise left {_median(part, 'default', 'noise_left'):.3f}"
+        outputs = ["oracle", "owned"] + (["default"] if all("default" in r for r in part) else [])
+        text = f"{split} ({len(part)} cases), medians: " + "; ".join(
+            f"{name} noise left {_median(part, name, 'noise_left'):.3f}, clean lost "
+            f"{100 * _median(part, name, 'clean_lost'):.2f} %, thin kept {_median(part, name, 'thin_kept'):.3f}, "
+            f"error ratio {_median(part, name, 'error_ratio'):.3f}, genus {_median(part, name, 'genus'):.0f}, "
+            f"genus equal to the clean shape's on {sum(r[name]['genus'] == r['clean_genus'] for r in part)} "
+            f"of {len(part)}" for name in outputs)
+        text += ("; AUC medians " + ", ".join(f"{name} {_median(part, 'auc', name):.3f}" for name in part[0]["auc"])
+                 + "; AUC medians, centre outside: "
+                 + ", ".join(f"{name} {_median(part, 'auc_outside', name):.3f}" for name in part[0]["auc"]))
         lines.append(text)
     return lines
 
