@@ -10,6 +10,7 @@ import pytest
 import trimesh
 
 from skelfilter.cli import commands
+from skelfilter.cli import parser as cli_parser
 from skelfilter.errors import ResourceError
 from skelfilter.runtime.memory import check_grid_fits
 
@@ -128,7 +129,7 @@ def test_refuses_to_overwrite_input(cube_file, tmp_path):
 
 
 def test_flags_come_from_the_parameter_dataclass():
-    parser = commands.build_parser()
+    parser = cli_parser.build_parser()
     args = parser.parse_args(["denoise", "a.obj", "b.obj", "--threshold", "12", "--stages", "foreground",
                               "--edt-filter", "none", "--importance", "estimate", "--skeleton", "ima", "--k", "0.5"])
     params = commands._params(commands.SKELETON_SALIENCY_DENOISE, args)
@@ -142,7 +143,7 @@ def test_flags_come_from_the_parameter_dataclass():
 @pytest.mark.parametrize("command", ["denoise", "batch"])
 def test_help_shows_the_common_flags_in_plain_words_and_help_all_every_parameter(command, capsys):
     with pytest.raises(SystemExit) as done:
-        commands.build_parser().parse_args([command, "--help"])
+        cli_parser.build_parser().parse_args([command, "--help"])
     assert done.value.code == 0
     short = capsys.readouterr().out
     assert len(short.splitlines()) <= 60
@@ -159,3 +160,39 @@ def test_hidden_flags_still_take_effect(cube_file, tmp_path):
     out = tmp_path / "out.ply"
     assert commands.run(["denoise", str(cube_file), str(out), "--threshold", "0", "--quiet"]) == 2
     assert not out.exists()
+
+
+def test_preview_draws_the_input_and_the_output_side_by_side(cube_file, tmp_path):
+    out, picture = tmp_path / "out.ply", tmp_path / "preview.png"
+    r = run_cli("denoise", cube_file, out, "--preview", picture, "--output-mesh", "closed", "--resolution", "32")
+    assert r.returncode == 0, r.stderr
+    with open(picture, "rb") as f:
+        assert f.read(8) == b"\x89PNG\r\n\x1a\n"
+    from matplotlib.image import imread
+    image = imread(picture)
+    height, width = image.shape[:2]
+    assert width > 1.8 * height  # two panels in a row
+    # something is drawn in each panel: both halves hold pixels darker than the white background
+    for half in (image[:, : width // 2], image[:, width // 2:]):
+        assert (half[..., :3].mean(axis=2) < 0.9).mean() > 0.01
+    assert sorted(os.listdir(tmp_path)) == ["out.ply", "preview.png"]  # and no temporary file left
+
+
+@pytest.mark.parametrize("name", ["out.ply", "preview.jpg"])
+def test_preview_refused_before_anything_runs(cube_file, tmp_path, name):
+    out = tmp_path / "out.ply"
+    r = run_cli("denoise", cube_file, out, "--preview", tmp_path / name)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+    assert r.stderr.startswith("skelfilter: error:")
+    assert not out.exists() and not (tmp_path / "preview.jpg").exists()
+
+
+def test_preview_of_a_volume(tmp_path):
+    mask = np.zeros((24, 24, 24), dtype=bool)
+    mask[6:18, 6:18, 6:18] = True
+    mask[11:13, 11:13, 18:20] = True  # a spur
+    src, out, picture = tmp_path / "mask.npy", tmp_path / "out.npy", tmp_path / "p.png"
+    np.save(src, mask)
+    r = run_cli("denoise", src, out, "--preview", picture)
+    assert r.returncode == 0, r.stderr
+    assert out.exists() and picture.stat().st_size > 1000

@@ -12,7 +12,7 @@ import pymeshlab
 import pytest
 import trimesh
 
-from skelfilter.cli import commands
+from skelfilter.cli import parser as cli_parser
 from skelfilter.errors import ParameterError
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.meshlab import descriptions, meshset, mlx, scripts
@@ -77,14 +77,14 @@ def _flags(parser):
 
 
 def test_cli_flags_and_meshset_signatures_come_from_the_descriptions():
-    parser = commands.build_parser()
+    parser = cli_parser.build_parser()
     sub = next(a for a in parser._actions if a.dest == "command").choices
     export = next(a for a in sub["export-script"]._actions if a.dest == "filter").choices
     for d in FILTERS:
         names = {p.name for p in d.parameters}
         assert names <= _flags(sub[d.command])
         assert _flags(sub[d.command]) - names <= {"save_skeleton", "progress", "close", "points", "label", "iso",
-                                                  "spacing", "help_all"}
+                                                  "spacing", "help_all", "preview"}
         assert _flags(export[d.command]) == names
         signature = inspect.signature(getattr(meshset, d.python_name))
         assert [(q.name, q.default) for q in list(signature.parameters.values())[1:]] == [

@@ -82,7 +82,7 @@ def check_paths(input_path, output_path, save_skeleton=None, points=False):
 
 
 def denoise_file(input_path, output_path, params, volume_params=None, save_skeleton=None, progress=None,
-                 points=False):
+                 points=False, preview=None):
     """Denoise one file into another.
 
     Parameters
@@ -97,6 +97,10 @@ def denoise_file(input_path, output_path, params, volume_params=None, save_skele
     points : bool
         For a point cloud input: write its points moved onto the denoised surface, attributes kept,
         rather than the denoised mesh (see `check_paths`).
+    preview : callable, optional
+        Called with the input's surface and the output's (trimesh meshes in the same coordinates:
+        a volume's and a point cloud's as marching cubes and Poisson surface) once the output is
+        written; the CLI's ``--preview`` draws them side by side.
 
     Returns
     -------
@@ -112,9 +116,9 @@ def denoise_file(input_path, output_path, params, volume_params=None, save_skele
         raise InputError(f"{input_path}: `label`, `iso` and `spacing` are for volume inputs")
     progress = progress or Progress(enabled=False)
     if kind_in == "volume":
-        return _denoise_volume_file(input_path, output_path, kind_out, params, volume_params, progress)
+        return _denoise_volume_file(input_path, output_path, kind_out, params, volume_params, progress, preview)
     if kind_in == "points":
-        return _denoise_point_file(input_path, output_path, kind_out, params, progress)
+        return _denoise_point_file(input_path, output_path, kind_out, params, progress, preview)
     mesh = mesh_files.load_mesh(input_path)
     mesh_files.check_mesh_output(mesh, output_path)
     out, result, grid = mesh_pipeline.denoise_mesh_detailed(mesh, params, progress)
@@ -124,11 +128,13 @@ def denoise_file(input_path, output_path, params, volume_params=None, save_skele
     mesh_files.save_mesh(out, output_path, protect=[input_path])
     if save_skeleton:
         _save_skeleton(save_skeleton, result, grid, {input_path: "input", output_path: "output"})
+    if preview is not None:
+        preview(mesh, out)
     return {"kind": "mesh", "voxels_changed": result.voxels_changed, "vertices": len(out.vertices),
             "faces": len(out.faces)}
 
 
-def _denoise_volume_file(input_path, output_path, kind_out, params, volume_params, progress):
+def _denoise_volume_file(input_path, output_path, kind_out, params, volume_params, progress, preview=None):
     volume = volume_files.load_volume(input_path, volume_params.spacing)
     mask = volume_files.select_mask(volume.data, volume_params.label, volume_params.iso)
     result = pipeline.denoise_volume(mask, params, progress, spacing=volume.spacing)
@@ -140,14 +146,27 @@ def _denoise_volume_file(input_path, output_path, kind_out, params, volume_param
         data = (volume_files.merge_label(volume.data, mask, result.mask, volume_params.label)
                 if volume_params.label is not None else result.mask)
         volume_files.save_volume(output_path, volume, data, protect=[input_path])
+        if preview is not None:
+            _preview_volume(preview, mask, result, volume.affine, progress)
         return summary
     with progress.step("marching cubes"):
         mesh = marching_cubes.field_to_world_mesh(result.field, volume.affine)
     mesh_files.save_mesh(mesh, output_path, protect=[input_path])
+    if preview is not None:
+        _preview_volume(preview, mask, result, volume.affine, progress, mesh)
     return {**summary, "vertices": len(mesh.vertices), "faces": len(mesh.faces)}
 
 
-def _denoise_point_file(input_path, output_path, kind_out, params, progress):
+def _preview_volume(preview, mask, result, affine, progress, output_mesh=None):
+    """``preview`` of a volume: the input's and the output's voxels as marching-cubes surfaces."""
+    with progress.step("preview surfaces"):
+        before = marching_cubes.field_to_world_mesh(mask.astype(np.float32) - 0.5, affine)
+        after = output_mesh if output_mesh is not None else \
+            marching_cubes.field_to_world_mesh(result.field, affine)
+    preview(before, after)
+
+
+def _denoise_point_file(input_path, output_path, kind_out, params, progress, preview=None):
     """A point cloud: its Poisson solid, denoised to a new closed mesh (there is no input mesh to
     keep), written as a mesh or as the points moved onto it."""
     cloud = point_cloud.load_points(input_path)
@@ -158,8 +177,12 @@ def _denoise_point_file(input_path, output_path, kind_out, params, progress):
     if kind_out == "points":
         with progress.step("points moved"):
             point_cloud.save_points(point_cloud.move_points(cloud, out), output_path, protect=[input_path])
+    else:
+        mesh_files.save_mesh(out, output_path, protect=[input_path])
+    if preview is not None:
+        preview(solid, out)
+    if kind_out == "points":
         return summary
-    mesh_files.save_mesh(out, output_path, protect=[input_path])
     return {**summary, "vertices": len(out.vertices), "faces": len(out.faces)}
 
 
