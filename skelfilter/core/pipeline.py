@@ -21,6 +21,10 @@ from skelfilter.runtime import worker_threads
 from skelfilter.runtime.memory import check_grid_fits
 from skelfilter.runtime.progress import Progress
 
+# Voxels of the input kept around the set's bounding box: more than the fine pass's widest Gaussian
+# reaches (4 sigma) and than any stage changes beyond the set; the rest of the grid is not looked at.
+CROP_MARGIN = 12
+
 
 @dataclass
 class DenoiseResult:
@@ -196,7 +200,8 @@ def denoise_volume(volume, params=None, progress=None, spacing=None, affine=None
     -------
     DenoiseResult
         ``mask`` (same shape as ``volume``), ``field`` (> 0 inside, 0 on the
-        sub-voxel surface), per-stage skeleton data (on the cubic grid) and step timings.
+        sub-voxel surface), per-stage skeleton data (on the cubic grid of the set's bounding box
+        widened by `CROP_MARGIN` voxels, the part of the volume the pipeline reads) and step timings.
         The volume's grid is used as it is: ``resolution`` is taken as the longest side of the
         set voxels' bounding box, so a relative threshold is relative to the shape's size.
 
@@ -232,6 +237,14 @@ def _denoise_volume(volume, params, progress, spacing, affine, overrides):
         # as given, one number per entry: the table's check refuses anything but three numbers
         spacing = VolumeParams(spacing=tuple(np.ravel(np.asarray(spacing, dtype=object)).tolist())).spacing
     resample = spacing is not None and not voxel_spacing.is_isotropic(spacing)
+    box = _crop(volume, spacing if resample else None)
+    if any(b.stop - b.start < n for b, n in zip(box, volume.shape)):
+        # A label of a large segmentation: its voxels and their surroundings, not the whole scan.
+        result = _denoise_volume(volume[box], params, progress, spacing, None, {})
+        mask, field = np.zeros(volume.shape, dtype=bool), np.full(volume.shape, -float(CROP_MARGIN), np.float32)
+        mask[box], field[box] = result.mask, result.field
+        result.mask, result.field = mask, field
+        return result
     keep = params.unchanged_surface == "input"
     if resample:
         check_grid_fits(voxel_spacing.isotropic_shape(volume.shape, spacing))
@@ -254,6 +267,24 @@ def _denoise_volume(volume, params, progress, spacing, affine, overrides):
             result.mask = result.field > 0
     result.voxels_changed = int(np.count_nonzero(result.mask != volume))
     return result
+
+
+def _crop(volume, spacing=None):
+    """The set's bounding box widened by `CROP_MARGIN` voxels. With anisotropic ``spacing`` each
+    start is moved down (by at most `CROP_MARGIN` more) to where the cubic grid of the box is part of
+    the whole volume's (`spacing.to_isotropic` puts the centres of cubic voxels at the same places),
+    so that the output does not depend on the crop."""
+    box = bounding_box(volume, margin=CROP_MARGIN)
+    if spacing is None:
+        return box
+    ratio = np.asarray(spacing, dtype=float) / min(spacing)
+    aligned = []
+    for b, r in zip(box, ratio):
+        starts = np.arange(b.start, max(b.start - CROP_MARGIN, 0) - 1, -1)
+        offset = starts * r
+        fits = np.flatnonzero(np.abs(offset - np.rint(offset)) < 1e-6)
+        aligned.append(slice(int(starts[fits[0]]) if len(fits) else b.start, b.stop))
+    return tuple(aligned)
 
 
 def _fine_pass_then_stages(cubic, params, progress):
