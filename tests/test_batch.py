@@ -132,3 +132,31 @@ def test_a_name_that_is_no_utf8_is_denoised_in_a_batch_with_the_others(tmp_path)
     assert sorted(os.listdir(tmp_path / "out")) == sorted([os.path.basename(odd), "good.ply", "summary.csv",
                                                            "summary.json"])
     assert len(mesh_files.load_mesh(os.path.join(str(tmp_path / "out"), os.path.basename(odd))).faces) > 0
+
+
+def test_keep_tree_mirrors_the_inputs_folders(tmp_path):
+    scans = tmp_path / "scans"
+    for patient in ("anna", "ben", "ben/followup"):
+        (scans / patient).mkdir(parents=True)
+        trimesh.creation.icosphere(3).export(scans / patient / "noisy.ply")
+    out = tmp_path / "cleaned"
+    r = run_batch(scans / "*" / "noisy.ply", "--out", out, "--workers", "1", "--resolution", "32")
+    assert r.returncode == 2 and "--keep-tree" in r.stderr and not out.exists()  # they would collide
+    r = run_batch(scans / "*" / "noisy.ply", scans / "ben" / "followup", "--out", out, "--workers", "1",
+                  "--resolution", "32", "--keep-tree", "--quiet")
+    assert r.returncode == 0, r.stderr
+    written = sorted(os.path.relpath(os.path.join(d, f), out) for d, _, names in os.walk(out) for f in names)
+    assert written == ["anna/noisy.ply", "ben/followup/noisy.ply", "ben/noisy.ply", "summary.csv", "summary.json"]
+    rows = {row["input"]: row["output"] for row in csv.DictReader(open(out / "summary.csv"))}
+    assert rows[str(scans / "ben" / "followup" / "noisy.ply")] == str(out / "ben" / "followup" / "noisy.ply")
+
+
+def test_keep_tree_leaves_no_folder_behind_when_refused(tmp_path):
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    trimesh.creation.box().export(tmp_path / "a" / "x.ply")
+    trimesh.creation.box().export(tmp_path / "b" / "x.ply")
+    with pytest.raises(InputError):  # an output format the input cannot become: refused before anything runs
+        batch.denoise_many([str(tmp_path / "a"), str(tmp_path / "b")], str(tmp_path / "out"), to="npy",
+                           keep_tree=True)
+    assert not (tmp_path / "out").exists()

@@ -88,7 +88,7 @@ def _batch(args):
     try:
         rows = batch.denoise_many(args.inputs, args.out, client=client, workers=args.workers, force=args.force,
                                   to=args.to, report=batch.progress_bar() if args.progress is not False else None,
-                                  **params)
+                                  keep_tree=args.keep_tree, **params)
     finally:
         if client is not None:
             client.close()

@@ -119,6 +119,8 @@ def build_parser(full_help=False):
                      "core); numba's threads share the rest of the cores")
     bat.add_argument("--to", metavar="EXT", help="output format, e.g. ply for meshes of volumes (default: "
                      "the input's)")
+    bat.add_argument("--keep-tree", action="store_true", help="mirror the inputs' folders under --out (below "
+                     "the folder they all share), so that scans/*/noisy.obj gives out/<each folder>/noisy.obj")
     bat.add_argument("--force", action="store_true", help="redo files whose output exists (default: skip "
                      "them; outputs are written atomically, so one that exists is complete)")
     _add_filter_flags(bat, SKELETON_SALIENCY_DENOISE, full_help)

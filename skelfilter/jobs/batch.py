@@ -82,30 +82,62 @@ def _supported(name):
         return False
 
 
-def output_paths(inputs, out_dir, to=None):
-    """Where each input's result goes: ``out_dir`` / its name (with the suffix ``to`` if given).
+def output_paths(inputs, out_dir, to=None, keep_tree=False):
+    """Where each input's result goes: ``out_dir`` / its name (with the suffix ``to`` if given); with
+    ``keep_tree``, ``out_dir`` / its path below the folder all inputs share.
 
     Raises
     ------
     InputError
-        Two inputs that would write the same output, or an output that is an input.
+        Two inputs that would write the same output.
     """
-    outputs = []
+    root = os.path.commonpath([os.path.dirname(p) for p in inputs]) if keep_tree else None
+    outputs, seen = [], {}
     for path in inputs:
-        name = os.path.basename(path)
+        name = os.path.relpath(path, root) if keep_tree else os.path.basename(path)
         if to:
             name = name[: -len(output_files.file_suffix(name))] + "." + to.lstrip(".")
-        outputs.append(os.path.abspath(os.path.join(out_dir, name)))
-    seen = {}
+        out = os.path.abspath(os.path.join(out_dir, name))
+        if out in seen:
+            raise InputError(f"{path} and {seen[out]} would both write {out}; keep their folders under the "
+                             "output folder (`keep_tree`, the CLI's --keep-tree), or put them in separate batches")
+        seen[out] = path
+        outputs.append(out)
+    return outputs
+
+
+def check_outputs(inputs, outputs):
+    """Refuse, before anything runs, an output that is an input or that its input cannot become."""
     files = {_file_id(path): path for path in inputs}
     for path, out in zip(inputs, outputs):
-        if out in seen:
-            raise InputError(f"{path} and {seen[out]} would both write {out}; put them in separate batches")
-        seen[out] = path
         denoise_file.check_paths(path, out)
         if out in inputs or (os.path.exists(out) and _file_id(out) in files):
             raise InputError(f"{out}: refusing to overwrite an input file ({files.get(_file_id(out), out)})")
-    return outputs
+
+
+def _make_folders(folders):
+    """Create the missing ``folders`` (and their missing parents); returns those it created, deepest
+    first, for `_remove_empty`."""
+    created = []
+    for folder in sorted(set(folders)):
+        missing = []
+        while not os.path.isdir(folder):
+            missing.append(folder)
+            folder = os.path.dirname(folder)
+        for folder in reversed(missing):
+            try:
+                os.mkdir(folder)
+            except OSError as exc:
+                _remove_empty(sorted(created, key=len, reverse=True))
+                raise output_files.write_failure(exc, folder) from None
+            created.append(folder)
+    return sorted(created, key=len, reverse=True)
+
+
+def _remove_empty(folders):
+    for folder in folders:
+        if os.path.isdir(folder) and not os.listdir(folder):
+            os.rmdir(folder)
 
 
 def _file_id(path):
@@ -213,7 +245,8 @@ def quiet_distributed():
             logging.getLogger(name).setLevel(logging.CRITICAL)
 
 
-def denoise_many(paths, out_dir, client=None, workers=None, force=False, to=None, report=None, **params):
+def denoise_many(paths, out_dir, client=None, workers=None, force=False, to=None, report=None, keep_tree=False,
+                 **params):
     """Denoise many files on Dask; writes ``summary.csv`` and ``summary.json`` into ``out_dir``.
 
     Parameters
@@ -222,6 +255,10 @@ def denoise_many(paths, out_dir, client=None, workers=None, force=False, to=None
         Files, folders or glob patterns (`expand_inputs`).
     out_dir : str
         Created if missing; each output has its input's name (suffix ``to`` if given).
+    keep_tree : bool
+        Put each output in the subfolder of ``out_dir`` that mirrors its input's folder below the
+        folder all inputs share (created as needed), so that files of one name in several folders
+        (``scans/*/noisy.obj``) do not collide.
     client : distributed.Client, optional
         A running cluster's client; by default a `local_cluster` of ``workers`` processes, closed
         at the end.
@@ -246,15 +283,14 @@ def denoise_many(paths, out_dir, client=None, workers=None, force=False, to=None
     if os.path.exists(out_dir) and not os.path.isdir(out_dir):
         raise InputError(f"{out_dir}: exists and is not a folder")
     inputs = expand_inputs(paths)
-    created = not os.path.isdir(out_dir)
-    os.makedirs(out_dir, exist_ok=True)
+    outputs = output_paths(inputs, out_dir, to, keep_tree)
+    created = _make_folders([out_dir, *(os.path.dirname(out) for out in outputs)])
     try:
-        outputs = output_paths(inputs, out_dir, to)
+        check_outputs(inputs, outputs)
         for name in SUMMARY_FILES:  # checked before anything runs, as every output
             output_files.check_output(os.path.join(out_dir, name), inputs)
     except BaseException:
-        if created:
-            os.rmdir(out_dir)
+        _remove_empty(created)
         raise
     rows = {}
     todo = []
@@ -273,8 +309,7 @@ def denoise_many(paths, out_dir, client=None, workers=None, force=False, to=None
         if todo:
             rows.update(_run(todo, client, workers, denoise_params, volume_params, report, len(rows)))
     except BaseException:  # interrupted: the finished outputs stay (complete: a rerun skips them)
-        if created and not os.listdir(out_dir):
-            os.rmdir(out_dir)
+        _remove_empty(created)
         raise
     ordered = [rows[path] for path in inputs]
     _write_summary(out_dir, ordered)
