@@ -14,12 +14,14 @@ the noise estimate's height; and its labels: the clean distance at its centre (t
 by the oracle where it is 0).
 
 ``train`` fits gradient-boosted trees on the tuning shapes' cases found in ``--dir``: a classifier of
-dropped balls and a regressor of the clean radius (the oracle's cap) of the others.
+dropped balls and a regressor of the clean radius (the oracle's cap) of the others. ``--weigh voxels``
+weighs each ball by the voxels it owns (`ball_oracle.ray_owners`), so that the loss counts voxels, not
+balls.
 
 ``evaluate`` prints, per case, the classifier's AUC on each side and the scores (`ball_oracle.scores`)
-of the output the model gives, built as the oracle's is: kept foreground balls (radius capped at the
-predicted clean radius) united with the background voxels no kept background ball covers; and the
-same without the cap.
+of the outputs the model gives, built as the oracle's are: kept foreground balls (radius capped at
+the predicted clean radius) united with the background voxels no kept background ball covers, the same
+without the cap, and the owned output (`ball_oracle.owned_output`: the voxels of dropped balls flip).
 """
 
 import argparse
@@ -116,21 +118,37 @@ def load(folder, shape, kind):
     return out
 
 
-def train(folder):
+def owners(shape, kind):
+    """`ball_oracle.ray_owners` of both sides of a case, and the case's noise masks."""
+    _, noise = _noise(shape, kind)
+    return {name: ball_oracle.ray_owners(side) for name, side, _, _ in _sides(noise)}, noise
+
+
+def train(folder, weigh="balls"):
     from sklearn.ensemble import HistGradientBoostingClassifier, HistGradientBoostingRegressor
     cases = [(s, k) for s in sorted(shapes.SHAPES) if s not in quality.HELD_OUT for k in quality.NOISE_KINDS
              if os.path.exists(os.path.join(folder, f"{s}_{k}.npz"))]
     print("training on", ", ".join(f"{s}:{k}" for s, k in cases), flush=True)
-    parts = [p for s, k in cases for p in load(folder, s, k).values()]
+    parts, weights = [], []
+    for shape, kind in cases:
+        loaded = load(folder, shape, kind)
+        owned = owners(shape, kind)[0] if weigh == "voxels" else None
+        for side in ("fg", "bg"):
+            parts.append(loaded[side])
+            if owned is not None:
+                _, owner, centres, _ = owned[side]
+                assert np.array_equal(centres, loaded[side][0])
+                weights.append(1.0 + np.bincount(owner[owner >= 0], minlength=len(centres)))
     inputs = np.concatenate([p[1] for p in parts])
+    weight = np.concatenate(weights) if weights else np.ones(len(inputs))
     dropped = np.concatenate([p[2] <= 0 for p in parts])
     cap = np.concatenate([np.minimum(p[2], p[3]) for p in parts])
     pick = np.random.default_rng(0).choice(len(inputs), min(len(inputs), TRAINING_BALLS), replace=False)
     trees = dict(max_iter=200, learning_rate=0.1, max_leaf_nodes=63, random_state=0)
-    classifier = HistGradientBoostingClassifier(**trees).fit(inputs[pick], dropped[pick])
+    classifier = HistGradientBoostingClassifier(**trees).fit(inputs[pick], dropped[pick], sample_weight=weight[pick])
     kept = pick[~dropped[pick]]
-    regressor = HistGradientBoostingRegressor(**trees).fit(inputs[kept], cap[kept])
-    with open(os.path.join(folder, "model.pkl"), "wb") as f:
+    regressor = HistGradientBoostingRegressor(**trees).fit(inputs[kept], cap[kept], sample_weight=weight[kept])
+    with open(os.path.join(folder, f"model-{weigh}.pkl"), "wb") as f:
         pickle.dump((classifier, regressor), f)
 
 
@@ -148,16 +166,22 @@ def model_output(parts, classifier, regressor, noisy):
     return out
 
 
-def evaluate(cases, folder):
-    with open(os.path.join(folder, "model.pkl"), "rb") as f:
+def evaluate(cases, folder, weigh="balls"):
+    with open(os.path.join(folder, f"model-{weigh}.pkl"), "rb") as f:
         classifier, regressor = pickle.load(f)
     for shape, kind in cases:
         parts = load(folder, shape, kind)
         aucs = [ball_oracle.auc(classifier.predict_proba(parts[s][1])[:, 1], parts[s][2] <= 0) for s in ("fg", "bg")]
-        case, noise = _noise(shape, kind)
+        owned, noise = owners(shape, kind)
+        case = quality.Case(shape, kind, 1)
         thin = metrics.thin_parts(noise.clean, quality.THIN_RADIUS)
-        for name, reg in (("model", regressor), ("model, radii uncapped", None)):
-            s = ball_oracle.scores(model_output(parts, classifier, reg, noise.noisy), noise, thin)
+        dropped = {side: classifier.predict_proba(parts[side][1])[:, 1] >= 0.5 for side in ("fg", "bg")}
+        outputs = {"model": model_output(parts, classifier, regressor, noise.noisy),
+                   "model, radii uncapped": model_output(parts, classifier, None, noise.noisy),
+                   "model, owned": ball_oracle.owned_output(noise.noisy, owned["fg"], owned["bg"], dropped["fg"],
+                                                            dropped["bg"])}
+        for name, out in outputs.items():
+            s = ball_oracle.scores(out, noise, thin)
             print(f"{case.name:24s} {case.split:9s} {name:22s} AUC fg {aucs[0]:.3f} bg {aucs[1]:.3f} | noise left "
                   f"{s['noise_left']:.3f} (bumps {s['bumps_left']:.3f}, dents {s['dents_left']:.3f}), clean lost "
                   f"{100 * s['clean_lost']:.2f} %, thin kept {s['thin_kept']:.3f}, error ratio {s['error_ratio']:.3f}, "
@@ -169,13 +193,15 @@ def main(argv=None):
     parser.add_argument("step", choices=("features", "train", "evaluate"))
     parser.add_argument("--cases", nargs="+", type=_case, default=[])
     parser.add_argument("--dir", default="learned-ball-decision", help="where measures and the model go")
+    parser.add_argument("--weigh", choices=("balls", "voxels"), default="balls",
+                        help="train: every ball alike, or each by the voxels it owns (evaluate: the model trained so)")
     args = parser.parse_args(argv)
     if args.step == "features":
         features(args.cases, args.dir)
     elif args.step == "train":
-        train(args.dir)
+        train(args.dir, args.weigh)
     else:
-        evaluate(args.cases, args.dir)
+        evaluate(args.cases, args.dir, args.weigh)
     return 0
 
 
