@@ -73,6 +73,27 @@ def test_a_textured_obj_brings_its_files_named_after_it(tmp_path):
     assert snapshot(tmp_path) == before
 
 
+@pytest.mark.parametrize("name, locale", [(b"caf\xe9", None), ("my café".encode(), "C")])
+def test_a_textured_obj_keeps_its_texture_whatever_its_name_and_locale(tmp_path, name, locale):
+    # a Latin-1 name (as on a legacy share), and a UTF-8 one with a space under LC_ALL=C
+    textured_box(tmp_path / "tex.obj")
+    out = os.path.join(os.fsencode(tmp_path), name + b".obj")
+    env = dict(os.environ, **({"LC_ALL": locale} if locale else {}))
+    try:
+        done = subprocess.run([sys.executable, "-m", "skelfilter.cli", "denoise", os.fsencode(tmp_path / "tex.obj"),
+                               out, "--resolution", "32", "--output-mesh", "input"], env=env, capture_output=True)
+    except (OSError, UnicodeError):
+        pytest.skip("this file system takes UTF-8 names only")
+    assert done.returncode == 0, done.stderr
+    text = open(out, "rb").read()
+    assert text.count(b"\nvt ") > 0 and b"mtllib " + name + b".mtl\n" in text
+    material = name.replace(b" ", b"_") + b"_0"
+    assert b"usemtl " + material in text
+    mtl = open(os.path.join(os.fsencode(tmp_path), name + b".mtl"), "rb").read()
+    assert b"map_Kd " + material + b".png" in mtl
+    assert os.path.exists(os.path.join(os.fsencode(tmp_path), material + b".png"))
+
+
 def test_a_batch_of_textured_objs_gives_each_its_own_material(tmp_path):
     src, out = tmp_path / "src", tmp_path / "out"
     src.mkdir()

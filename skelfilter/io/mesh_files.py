@@ -221,6 +221,9 @@ def save_mesh(mesh, path, protect=()):
     atomic_write(path, lambda tmp: mesh.export(tmp, file_type=ext, **options), protect)
 
 
+_MTL_PLACEHOLDER, _MATERIAL_PLACEHOLDER = "skelfilter-mtl-3f9c", "skelfilter_material_3f9c"
+
+
 def _save_obj(mesh, path, protect):
     """OBJ with its material library and texture named after it (``out.mtl``, ``out_0.png``), written
     with it in one step: two outputs in one folder never share them, and no file of that name the
@@ -228,19 +231,34 @@ def _save_obj(mesh, path, protect):
     from trimesh.exchange.obj import export_obj
 
     stem = os.path.splitext(os.path.basename(str(path)))[0]
+    # trimesh drops the material of a name it cannot encode (a Latin-1 file name, any non-ASCII one
+    # under LC_ALL=C) and says so only in a debug log; it gets placeholders, replaced by the real
+    # names' bytes, as the file system spells them, once the text is made.
+    names = {_MTL_PLACEHOLDER: stem, _MATERIAL_PLACEHOLDER: re.sub(r"\s", "_", stem)}
     if getattr(mesh.visual, "material", None) is not None:
         visual = mesh.visual.copy()
-        visual.material.name = re.sub(r"\s", "_", stem) + "_0"
+        visual.material.name = _MATERIAL_PLACEHOLDER + "_0"
         mesh = trimesh.Trimesh(mesh.vertices, mesh.faces, visual=visual, process=False)
-    text, files = export_obj(mesh, return_texture=True, write_texture=False, mtl_name=f"{stem}.mtl",
+    text, files = export_obj(mesh, return_texture=True, write_texture=False, mtl_name=f"{_MTL_PLACEHOLDER}.mtl",
                              digits=_decimal_places(mesh.vertices))
     directory = os.path.dirname(os.path.abspath(str(path)))
 
-    def write(tmp):
-        with open(tmp, "w", encoding="utf-8") as f:
-            f.write(text)
+    def named(data):
+        for placeholder, name in names.items():
+            data = data.replace(placeholder.encode(), os.fsencode(name))
+        return data
 
-    atomic_write(path, write, protect, sidecars={os.path.join(directory, name): data for name, data in files.items()})
+    sidecars = {}
+    for name, data in files.items():
+        for placeholder, real in names.items():
+            name = name.replace(placeholder, real)
+        sidecars[os.path.join(directory, name)] = named(data) if name.endswith(".mtl") else data
+
+    def write(tmp):
+        with open(tmp, "wb") as f:
+            f.write(named(text.encode("utf-8")))
+
+    atomic_write(path, write, protect, sidecars=sidecars)
 
 
 def _decimal_places(points):
