@@ -101,3 +101,19 @@ def test_library_messages_name_parameters_and_the_cli_its_flags():
     assert _in_cli_terms(str(refused.value)).endswith("lower --resolution")
     assert _in_cli_terms("`save_skeleton` needs a mesh input; `not_a_parameter` stays") == (
         "--save-skeleton needs a mesh input; `not_a_parameter` stays")
+
+
+def test_runs_where_numba_can_write_no_cache():
+    # a system install run by an account that can write neither beside the package nor in a home
+    code = """
+from numba.core import caching
+caching.CacheImpl._locator_classes = []  # no folder numba could write its cache to
+import numpy as np
+from skelfilter.core import pipeline
+volume = np.zeros((24, 24, 24), dtype=bool)
+volume[6:18, 6:18, 6:18] = True
+print(pipeline.denoise_volume(volume).mask.sum())
+"""
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert int(done.stdout.split()[-1]) == 12 ** 3

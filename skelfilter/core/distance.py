@@ -10,7 +10,9 @@ indices (4 bytes per voxel) and the distances come out as float32.
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
+
+from skelfilter.runtime.compiled import njit
 
 
 def distance_and_features(volume):
@@ -69,7 +71,7 @@ def gradient_at(distance, voxels):
     return g
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _first_axis(volume, features):
     """Nearest background voxel along axis 0, ties to the lower index (-1: none on the line)."""
     nx, ny, nz = volume.shape
@@ -93,7 +95,7 @@ def _first_axis(volume, features):
                 features[i, j, k] = -1 if behind < 0 else (behind * ny + j) * nz + k
 
 
-@njit(cache=True)
+@njit()
 def _voronoi_line(ids, perp, out, out_d2, sites):
     """Maurer's Voronoi step on one line, as scipy's ``_VoronoiFT`` does it (exactly, in integers).
 
@@ -139,7 +141,7 @@ def _voronoi_line(ids, perp, out, out_d2, sites):
         out_d2[q] = d1
 
 
-@njit(cache=True)
+@njit()
 def _perpendicular(ids, perp, ny, nz, i, j, k, axis):
     """Squared distance from ``(i, j, k)`` to each feature, leaving out ``axis``."""
     for q in range(ids.size):
@@ -152,7 +154,7 @@ def _perpendicular(ids, perp, ny, nz, i, j, k, axis):
         perp[q] = (d0 * d0 if axis != 0 else 0) + (d1 * d1 if axis != 1 else 0) + (d2 * d2 if axis != 2 else 0)
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _other_axes(features, distance):
     """The passes along axes 1 and 2, plane by plane (both stay in one plane of axis 0)."""
     B = 16  # lines along axis 1 handled together, so reads and writes use whole cache lines

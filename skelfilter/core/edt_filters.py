@@ -8,11 +8,12 @@ implicit minification the best (Tables 6.1-6.2) and uses it with ``r = 3`` (§8.
 """
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 from scipy import ndimage
 
 from skelfilter.core.neighbourhood import OFFSETS_26, ball_offsets, bounding_box, flat_offsets, push, unravel
 from skelfilter.errors import ParameterError
+from skelfilter.runtime.compiled import njit
 
 
 def minify(distance, centres, radius=3.0):
@@ -56,7 +57,7 @@ def minify(distance, centres, radius=3.0):
     return kernel_filter(distance, centres, "minify", radius)
 
 
-@njit(cache=True)
+@njit()
 def _piece_sizes(labels, n):
     """Voxels per label 0..n (np.bincount would first copy the labels to int64)."""
     sizes = np.zeros(n + 1, np.int64)
@@ -65,7 +66,7 @@ def _piece_sizes(labels, n):
     return sizes
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _mark_pieces(labels, small, out):
     """``out |= small[labels]`` in place, without a temporary over the box."""
     for i in prange(labels.shape[0]):
@@ -131,7 +132,7 @@ def needles(mask, max_neighbours=2):
     return flip
 
 
-@njit(cache=True)
+@njit()
 def _peel(mask, found, steps, shape, max_neighbours):
     """Clear (in ``mask``) and mark (in ``found``) bare voxels, then the neighbours they leave bare."""
     nx, ny, nz = shape
@@ -156,7 +157,7 @@ def _peel(mask, found, steps, shape, max_neighbours):
                 stack, top = push(stack, top, u)
 
 
-@njit(cache=True)
+@njit()
 def _count(mask, v, steps):
     n = 0
     for step in steps:
@@ -169,7 +170,7 @@ KERNELS = ("minify", "mean", "median", "opening")
 _MIN, _MAX, _MEAN, _MEDIAN = 0, 1, 2, 3
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _ball_reduce(values, coords, offsets, kind):
     """The kernel ``kind`` over the positive ``values`` within ``offsets`` of each of ``coords``; 0 where none."""
     nx, ny, nz = values.shape
@@ -197,7 +198,7 @@ def _ball_reduce(values, coords, offsets, kind):
     return out
 
 
-@njit(cache=True)
+@njit()
 def _mark_balls(marks, coords, offsets):
     nx, ny, nz = marks.shape
     for n in range(coords.shape[0]):
@@ -289,7 +290,7 @@ def kernel_filter(distance, centres, kernel, radius=3.0, explicit=False):
     return np.where(inside, out, 0.0).astype(np.float32)
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _plane_projection(lookup, coords, radii, offsets):
     nx, ny, nz = lookup.shape
     out = radii.astype(np.float64)

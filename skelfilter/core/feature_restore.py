@@ -7,13 +7,13 @@ noise is a feature, and comes back whole. And a pruning that cuts a shape in two
 it loose, removed what joined them: that comes back too.
 """
 
-import numba
 import numpy as np
 from scipy import ndimage
 
 from skelfilter.core.distance import distance_and_features
 from skelfilter.core.neighbourhood import OFFSETS_26, bounding_box, flat_offsets, push
 from skelfilter.core.noise_estimate import height_above
+from skelfilter.runtime.compiled import njit
 
 CUBE = np.ones((3, 3, 3), dtype=bool)
 # Voxels added to the estimated noise height before a removed part counts as a feature: the
@@ -75,7 +75,7 @@ def features_by_extent(stage_set, pruned, height, tolerance=0.5):
     return out
 
 
-@numba.njit(cache=True)
+@njit()
 def _descend(height, found, seeds, steps, tolerance):
     """Mark (in ``found``) the voxels of height > 0 reached from ``seeds`` through 26-neighbours on a
     path that never rises more than ``tolerance`` above its lowest voxel so far.

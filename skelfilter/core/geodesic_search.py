@@ -5,13 +5,15 @@ pairs a failed search covers."""
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
+
+from skelfilter.runtime.compiled import njit
 
 # Step length by number of coordinates that change (0 to 3).
 STEP = (0.0, 1.0, math.sqrt(2.0), math.sqrt(3.0))
 
 
-@njit(cache=True, inline="always")
+@njit(inline="always")
 def _grid_distance(coords, u, tx, ty, tz):
     """Shortest-path length from node u to the voxel (tx, ty, tz) in the unobstructed 26-connected grid."""
     dx = abs(coords[u, 0] - tx)
@@ -40,7 +42,7 @@ _MARGIN = np.float32(2 * _HOPS * math.sqrt(3.0) + 0.01)  # 0.01: float32 sums of
 _RUN = 256
 
 
-@njit(cache=True)
+@njit()
 def _astar_chunk(indptr, indices, steps, coords, sources, targets, cap, queries_of, first, stride,
                  rho, expanded, covered):
     """The runs of queries ``first, first + stride, ...`` in turn, sharing one set of scratch arrays."""
@@ -116,7 +118,7 @@ def _astar_chunk(indptr, indices, steps, coords, sources, targets, cap, queries_
                 _cover(indptr, indices, sources, targets, queries_of, t, s, near, seen, ring, 2 * tag + 1, covered)
 
 
-@njit(cache=True)
+@njit()
 def _within_hops(indptr, indices, start, seen, mark, ring):
     """The nodes at most `_HOPS` edges from ``start`` (tagged ``mark`` in ``seen``); their count, in ``ring``."""
     ring[0] = start
@@ -137,7 +139,7 @@ def _within_hops(indptr, indices, start, seen, mark, ring):
     return count
 
 
-@njit(cache=True)
+@njit()
 def _cover(indptr, indices, sources, targets, queries_of, s, t, near, seen, ring, tag, covered):
     """Mark the queries from a node near ``s`` to a node near ``t`` (`_HOPS` edges each) as covered."""
     _within_hops(indptr, indices, t, near, tag, ring)
@@ -149,7 +151,7 @@ def _cover(indptr, indices, sources, targets, queries_of, s, t, near, seen, ring
                 covered[q] = True
 
 
-@njit(cache=True, inline="always")
+@njit(inline="always")
 def _push(keys, items, size, key, item):
     i = size
     while i > 0:
@@ -164,7 +166,7 @@ def _push(keys, items, size, key, item):
     return size + 1
 
 
-@njit(cache=True, inline="always")
+@njit(inline="always")
 def _pop(keys, items, size):
     """Drop the heap's root; returns the new size."""
     size -= 1
@@ -187,7 +189,7 @@ def _pop(keys, items, size):
     return size
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def astar(indptr, indices, steps, coords, sources, targets, cap, queries_of, n_chunks):
     rho = np.empty(len(sources), dtype=np.float32)
     expanded = np.empty(len(sources), dtype=np.int32)

@@ -14,12 +14,13 @@ import math
 
 import numba
 import numpy as np
-from numba import njit, prange
+from numba import prange
 from scipy import ndimage
 
 from skelfilter.core.geodesic_search import STEP, astar
 from skelfilter.core.neighbourhood import OFFSETS_26, flat_offsets, ravel, unravel
 from skelfilter.errors import ParameterError
+from skelfilter.runtime.compiled import njit
 
 # Node ids are numbered by blocks of 2**_BLOCK_BITS voxels a side.
 _BLOCK_BITS = 3
@@ -51,7 +52,7 @@ def boundary_layer(volume):
     return boundary
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _boundary_layer(x, out):
     nx, ny, nz = x.shape
     for i in prange(nx):
@@ -244,7 +245,7 @@ def _graph(boundary, coords):
     return indptr, indices, steps
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _degree(lookup, here, offsets):
     degree = np.zeros(here.size, dtype=np.int64)
     for n in prange(here.size):
@@ -253,7 +254,7 @@ def _degree(lookup, here, offsets):
     return degree
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _edges(lookup, here, offsets, changed, indptr, indices, steps):
     for n in prange(here.size):
         e = indptr[n]
@@ -265,7 +266,7 @@ def _edges(lookup, here, offsets, changed, indptr, indices, steps):
                 e += 1
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _estimate(distance, ca, cb):
     nx, ny, nz = distance.shape
     out = np.empty(len(ca), dtype=np.float32)

@@ -10,8 +10,9 @@ Conventions used throughout skelfilter:
 * distances are in voxels unless a name says ``_world``.
 """
 
-import numba
 import numpy as np
+
+from skelfilter.runtime.compiled import njit
 
 # The 26 neighbours of the origin (the 3x3x3 cube minus its centre), eq. 7.12's b.
 OFFSETS_26 = np.array(
@@ -76,7 +77,7 @@ def bounding_box(volume, margin=0):
     return tuple(box)
 
 
-@numba.njit(cache=True)
+@njit()
 def push(stack, top, value):
     """Push ``value`` on the int64 array ``stack`` whose first ``top`` entries are in use, doubling it
     when full (numba kernels' work lists); returns the stack and the new ``top``."""

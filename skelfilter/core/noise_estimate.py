@@ -29,11 +29,12 @@ pruning lowers by a voxel or two) and 10-11 for h = 7. See ``docs/noise-estimate
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 from scipy import ndimage
 
 from skelfilter.core.distance import distance_and_features
 from skelfilter.core.neighbourhood import bounding_box
+from skelfilter.runtime.compiled import njit
 
 LEAST_PEAK = 3.0  # voxels: lower peaks are skins and relief (the clean shapes' peaks are mostly 2-3)
 HIGHEST_NOISE = 0.075  # of the size: taller peaks are features whatever the estimate (12 voxels at 160)
@@ -120,7 +121,7 @@ def surface_cells(volume, cell):
     return int(np.count_nonzero(held))
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _mark_surface_cells(x, cell, held):
     # The planes of one row of cells run in one thread: no two threads write the same cell.
     nx, ny, nz = x.shape
@@ -151,7 +152,7 @@ def local_peaks(height, least, highest, window):
     return out
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _local_peaks(h, least, highest, reach, out):
     nx, ny, nz = h.shape
     for i in prange(nx):

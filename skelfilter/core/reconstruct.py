@@ -15,10 +15,11 @@ the owner (`union_of_balls`).
 """
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from skelfilter.core.neighbourhood import unravel
 from skelfilter.errors import ParameterError
+from skelfilter.runtime.compiled import njit
 
 
 def squared_radii(radii):
@@ -51,7 +52,7 @@ def _validate(shape, centres, radii):
     return shape, centres, radii
 
 
-@njit(cache=True)
+@njit()
 def _seed(owner_flat, centres, r2):
     # Several centres in one voxel: the largest ball contains the others.
     for i in range(centres.size):
@@ -60,7 +61,7 @@ def _seed(owner_flat, centres, r2):
             owner_flat[centres[i]] = i
 
 
-@njit(cache=True)
+@njit()
 def _envelope_line(own, p1, p2, sites, axis, b1, b2, g, v, z, out_own, out_pow):
     """Upper envelope of the parabolas ``g_q - (x - q)^2`` of one line (eq. 7.26 squared).
 
@@ -108,7 +109,7 @@ def _envelope_line(own, p1, p2, sites, axis, b1, b2, g, v, z, out_own, out_pow):
         out_pow[q] = g[p] - (q - p) ** 2
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _envelope_pass(owner, power, sites, axis):
     """One pass of `_envelope_line` over every line along ``axis``.
 
@@ -149,7 +150,7 @@ def _envelope_pass(owner, power, sites, axis):
                         pow_flat[base + q * sa + b * s2] = tile_pow[b, q]
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _relabel(owner, label):
     flat = owner.reshape(-1)
     for i in prange(flat.size):
@@ -256,7 +257,7 @@ def naive_union_of_balls(shape, centres, radii):
     return mask
 
 
-@njit(cache=True)
+@njit()
 def _splat(mask, coords, r2):
     nx, ny, nz = mask.shape
     for n in range(coords.shape[0]):
@@ -290,7 +291,7 @@ def reconstruction(power):
     return np.asarray(power) > 0
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _signed_distance(owner, coords, r2, out):
     nx, ny, nz = owner.shape
     for i in prange(nx):

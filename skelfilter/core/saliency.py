@@ -11,6 +11,7 @@ import numpy as np
 
 from skelfilter.core.distance import gradient_at
 from skelfilter.core.neighbourhood import OFFSETS_26, flat_offsets, unravel
+from skelfilter.runtime.compiled import njit
 
 # A skeleton step y - x counts as "along v" when its cosine with v(x) is at
 # least this: the cone the derivative measure steps in and that rho+ is
@@ -38,7 +39,7 @@ def skeleton_adjacency(skeleton, shape):
     return indptr, indices
 
 
-@numba.njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _neighbour_count(lookup, skeleton, steps):
     counts = np.zeros(skeleton.size, dtype=np.int64)
     for i in numba.prange(skeleton.size):
@@ -47,7 +48,7 @@ def _neighbour_count(lookup, skeleton, steps):
     return counts
 
 
-@numba.njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _neighbour_fill(lookup, skeleton, steps, indptr, indices):
     for i in numba.prange(skeleton.size):
         p = indptr[i]
@@ -157,7 +158,7 @@ def derivative_measure(rho, distance, skeleton, velocity, adjacency, guard=0.1, 
     return sigma
 
 
-@numba.njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _step_ratio(coords, rho, dist, velocity, indptr, indices, guard, min_cosine, max_rho):
     n = coords.shape[0]
     out = np.full(n, np.nan, dtype=np.float32)
@@ -232,7 +233,7 @@ def rho_plus(rho, sigma_bar, adjacency, k=0.9, velocity=None, skeleton=None, sha
     return _rho_plus_cone(rho, ligature, order, indptr, indices, coords, velocity, cone)
 
 
-@numba.njit(cache=True)
+@njit()
 def _rho_plus_cone(rho, ligature, order, indptr, indices, coords, velocity, cone):
     n = rho.shape[0]
     out = rho.copy()
@@ -292,7 +293,7 @@ def direct_rho_plus(rho, sigma_bar, adjacency, velocity, skeleton, shape, k=0.9)
     return _path_ends(rho, successor)
 
 
-@numba.njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _successors(rho, ligature, indptr, indices, coords, velocity):
     n = rho.shape[0]
     out = np.full(n, -1, dtype=np.int64)
@@ -311,7 +312,7 @@ def _successors(rho, ligature, indptr, indices, coords, velocity):
     return out
 
 
-@numba.njit(cache=True)
+@njit()
 def _path_ends(rho, successor):
     n = rho.shape[0]
     out = rho.copy()

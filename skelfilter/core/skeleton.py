@@ -1,9 +1,10 @@
 """Surface skeletons: the IE and IMA rules (thesis §7.1.1) and the extended feature transform (eq. 2.6)."""
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from skelfilter.core.neighbourhood import OFFSETS_6, OFFSETS_26, flat_offsets, unravel
+from skelfilter.runtime.compiled import njit
 
 
 def ie_skeleton(distance):
@@ -34,7 +35,7 @@ def ie_skeleton(distance):
     return np.flatnonzero(marks.reshape(-1))
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _ie_rule(distance, marks):
     # float32 throughout, summed in the order x, y, z: the arithmetic of gradient_at.
     nx, ny, nz = distance.shape
@@ -123,7 +124,7 @@ def extended_feature_points(volume, features, skeleton):
     return a, b
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _farthest_neighbour_feature(flat, feat, skeleton, a, steps, ny, nz):
     b = a.copy()
     for n in prange(skeleton.size):

@@ -17,11 +17,12 @@ Thesis §4.2.1 (eq. 4.8-4.10, the contraction direction as a velocity field) and
 """
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 from scipy import ndimage
 
 from skelfilter.core.distance import distance_and_features, gradient_at
 from skelfilter.core.neighbourhood import OFFSETS_6, bounding_box, flat_offsets
+from skelfilter.runtime.compiled import njit
 
 TIME_STEP = 0.5  # the donor-cell scheme is stable for dt * sum_k |u_k| <= 1, and sum_k |u_k| <= sqrt(3)
 CROSSINGS = 2.0  # the advection runs for the time mass takes to cross the shape's box this many times
@@ -121,7 +122,7 @@ def max_density(volume, smoothing=0.0, steps=None):
     return density
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _advect(mass, u, neighbours, steps, dt):
     # Donor-cell fluxes: voxel i sends dt * |u_k| of its mass to its neighbour along sign(u_k) on
     # each axis k. A component that points out of the shape is dropped, so no mass is lost.

@@ -25,9 +25,10 @@ References
 """
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from skelfilter.mesh.normal_filtering import face_edges, spatial_weights, squared_difference, weighted_average
+from skelfilter.runtime.compiled import njit
 
 # Normal differences below this (about 6 degrees) count as flat in `flat_share`.
 FLAT_DIFFERENCE = 0.1
@@ -61,12 +62,12 @@ def neighbour_lists(pairs, m):
     return indptr, np.ascontiguousarray(j[order], dtype=np.int64)
 
 
-@njit(cache=True, inline="always")
+@njit(inline="always")
 def _difference(normals, a, b):
     return squared_difference(normals, a, b) ** 0.5
 
 
-@njit(cache=True, inline="always")
+@njit(inline="always")
 def _contains(members, face):
     for member in members:
         if member == face:
@@ -74,7 +75,7 @@ def _contains(members, face):
     return False
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _patch_measures(indptr, indices, normals, areas, across, consistency, spread, mean):
     for centre in prange(len(indptr) - 1):
         lo, hi = indptr[centre], indptr[centre + 1]
@@ -106,7 +107,7 @@ def _patch_measures(indptr, indices, normals, areas, across, consistency, spread
             mean[centre, 0], mean[centre, 1], mean[centre, 2] = sx / length, sy / length, sz / length
 
 
-@njit(cache=True)
+@njit()
 def _most_consistent(indptr, indices, consistency, face):
     best = np.int64(face)
     for t in range(indptr[face], indptr[face + 1]):
@@ -115,7 +116,7 @@ def _most_consistent(indptr, indices, consistency, face):
     return best
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _choose(indptr, indices, consistency, mean, guide):
     for face in prange(len(indptr) - 1):
         guide[face] = mean[_most_consistent(indptr, indices, consistency, face)]

@@ -18,8 +18,9 @@ References
 """
 
 import numpy as np
-from numba import njit
 from scipy import sparse
+
+from skelfilter.runtime.compiled import njit
 
 
 def face_neighbours(faces, n_vertices, subset=None):
@@ -117,14 +118,14 @@ def weighted_average(normals, areas, pairs, static, range_normals, sigma_r):
     return normalize(summed)
 
 
-@njit(cache=True, inline="always")
+@njit(inline="always")
 def squared_difference(vectors, a, b):
     """``|vectors[a] - vectors[b]|^2`` of two rows of a (n, 3) array, in compiled kernels."""
     return ((vectors[a, 0] - vectors[b, 0]) ** 2 + (vectors[a, 1] - vectors[b, 1]) ** 2
             + (vectors[a, 2] - vectors[b, 2]) ** 2)
 
 
-@njit(cache=True)
+@njit()
 def _add_bilateral(summed, i, j, static, normals, range_normals, sigma_r):
     """``summed[i] += static * W_r(|range_normals[i] - range_normals[j]|) * normals[j]`` over the pairs,
     in their order."""
@@ -210,7 +211,7 @@ def noise_level(normals, pairs):
     return float(np.median(smallest[np.isfinite(smallest)]))  # faces without pairs stay infinite
 
 
-@njit(cache=True)
+@njit()
 def _smallest_difference(i, j, normals):
     """Per face, the smallest ``|normals[i] - normals[j]|`` over its pairs (infinite without any)."""
     smallest = np.full(len(normals), np.inf)

@@ -15,9 +15,10 @@ like the merged mesh.
 """
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from skelfilter.core.neighbourhood import OFFSETS_6
+from skelfilter.runtime.compiled import njit
 
 # Voxel centres are sampled at this tiny irrational offset (in voxels), the
 # same for the three axes: rays then practically never meet a triangle edge
@@ -93,13 +94,13 @@ def occupancy(vertices, faces, grid):
     return votes.view(np.bool_)
 
 
-@njit(cache=True)
+@njit()
 def _clip(x, n):
     # Clipped in floating point: a far-away triangle's coordinates may not fit an int.
     return int(min(max(x, 0.0), float(n)))
 
 
-@njit(cache=True)
+@njit()
 def _orient(ax, ay, bx, by, px, py):
     # Twice the signed area of (a, b, p) with a, b taken in lexicographic
     # order: the triangles sharing an edge see bit-identical values at a ray
@@ -109,7 +110,7 @@ def _orient(ax, ay, bx, by, px, py):
     return (bx - ax) * (py - ay) - (by - ay) * (px - ax)
 
 
-@njit(cache=True)
+@njit()
 def _scan(us, vs, ws, faces, nu, nv, slot, hits, signs, handedness):
     """Rasterize every triangle's projection onto the lattice of rays.
 
@@ -161,7 +162,7 @@ def _scan(us, vs, ws, faces, nu, nv, slot, hits, signs, handedness):
                 slot[ray] += 1
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _vote(hits, signs, start, votes, bit, valid, winding):
     """Sort each ray's crossings; set ``bit`` in ``votes[p, q, k]`` where the ray is inside.
 
@@ -205,7 +206,7 @@ def _vote(hits, signs, start, votes, bit, valid, winding):
                     votes[p, q, k] |= bit
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _decide(votes, valid_x, valid_y, valid_z):
     """Replace the vote bits by the voxel states, in place."""
     nx, ny, nz = votes.shape
@@ -223,7 +224,7 @@ def _decide(votes, valid_x, valid_y, valid_z):
                     votes[i, j, k] = _WEAK_IN if 2 * n_in > n_valid else _WEAK_OUT
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _stretch_score(states, hits, start, strides, undecided, score):
     """Add to the score of each undecided voxel the mean decision (+1 in, -1 out)
     of the decided voxels on its stretch of ray ``(p, q)`` between two crossings.
@@ -254,7 +255,7 @@ def _stretch_score(states, hits, start, strides, undecided, score):
                 k = end
 
 
-@njit(cache=True)
+@njit()
 def _seal(states, weak):
     """Settle the ``weak`` voxels (sorted flat indices) to 0 or 1, in place.
 

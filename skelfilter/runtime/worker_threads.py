@@ -14,12 +14,13 @@ kernel, so that a run that decides there is nothing to do never pays for them.
 import warnings
 
 import numpy as np
-from numba import NumbaWarning, njit, prange
+from numba import NumbaWarning, prange
 
 from skelfilter.runtime import signals
+from skelfilter.runtime.compiled import njit
 
 
-@njit(cache=True, parallel=True)
+@njit(parallel=True)
 def _touch(values):
     total = 0.0
     for i in prange(values.size):
