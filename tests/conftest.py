@@ -1,10 +1,22 @@
 import os
+import signal
 
 import numpy as np
 import pytest
 import trimesh
 
 HERE = os.path.dirname(__file__)
+
+
+def pytest_configure(config):
+    """A shell starts background jobs (``make test &``, ``nohup``) with SIGINT (and SIGHUP) ignored,
+    and a child inherits an ignored signal: the CLI rightly keeps it so, and the interrupt tests would
+    see their signals ignored. Here they get handlers of Python's own, which a child does not inherit:
+    the children start with the default dispositions, and this process still ignores a hang-up."""
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    if signal.getsignal(signal.SIGHUP) is signal.SIG_IGN:
+        signal.signal(signal.SIGHUP, lambda signum, frame: None)
 
 
 PACKAGE_DATA = os.path.join(HERE, "..", "skelfilter", "data")
