@@ -119,6 +119,14 @@ def test_pymeshlab_error_is_reported(noisy_box, tmp_path):
     ('<FilterScript><filter name="Taubin Smooth"><Param name="mu" value="x" type="RichFloat"/>'
      '</filter></FilterScript>', "not a number"),
     ("<Other/>", "FilterScript"),
+    # values pymeshlab would take and misread, or fail on: a percentage past its range, a colour of 1e20,
+    # a bounded float past its bounds
+    ('<FilterScript><filter name="Random Vertex Displacement"><Param name="displacement" value="5" min="0" max="2"'
+     ' type="RichAbsPerc"/></filter></FilterScript>', r"outside its range \[0, 2\]"),
+    ('<FilterScript><filter name="Vertex Color White Balance"><Param name="color" r="1e20" g="0" b="0" a="255"'
+     ' type="RichColor"/></filter></FilterScript>', r"integers in \[0, 255\]"),
+    ('<FilterScript><filter name="Vertex Color Thresholding"><Param name="threshold" value="300" min="0" max="255"'
+     ' type="RichDynamicFloat"/></filter></FilterScript>', r"outside pymeshlab's range \[0, 255\]"),
 ])
 def test_bad_scripts_are_refused(tmp_path, text, message):
     path = tmp_path / "bad.mlx"

@@ -196,6 +196,9 @@ def param_value(attrs, where):
         pymeshlab = need("pymeshlab", "MeshLab's filters")
 
         v, lo, hi = (_float(attrs, k, where) for k in ("value", "min", "max"))
+        if hi > lo and not lo <= v <= hi:
+            raise InputError(f"{where}: RichAbsPerc value {attrs['value']} lies outside its range "
+                             f"[{attrs['min']}, {attrs['max']}]")
         if hi > lo:
             return pymeshlab.PercentageValue(100.0 * (v - lo) / (hi - lo))
         return pymeshlab.PureValue(v)
@@ -215,8 +218,11 @@ def param_value(attrs, where):
     if kind == "RichColor":
         pymeshlab = need("pymeshlab", "MeshLab's filters")
 
-        r, g, b, a = (int(_float(attrs, k, where)) for k in "rgba")
-        return pymeshlab.Color(r, g, b, a)
+        channels = [_float(attrs, k, where) for k in "rgba"]
+        if not all(0 <= c <= 255 and c == int(c) for c in channels):
+            raise InputError(f"{where}: RichColor channels must be integers in [0, 255], got "
+                             + ", ".join(f"{k}={attrs[k]}" for k in "rgba"))
+        return pymeshlab.Color(*(int(c) for c in channels))
     if kind in ("RichString", "RichOpenFile", "RichSaveFile"):
         if value is None:
             raise InputError(f"{where}: {kind} has no value")

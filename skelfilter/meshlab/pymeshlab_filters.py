@@ -189,8 +189,15 @@ def check_filter(element, pname, source):
             raise InputError(f"{where}: wrong type {p.attrs.get('type')!r}; pymeshlab's {key} is of type "
                              f"{kind} ({' or '.join(allowed)})")
         params[key] = mlx.param_value(p.attrs, where)
+        bounds = _BOUNDS_RE.search(known[key][1]) if kind == "float (bounded)" else None
+        if bounds and not float(bounds[1]) <= params[key] <= float(bounds[2]):
+            raise InputError(f"{where}: {p.attrs.get('value')} lies outside pymeshlab's range "
+                             f"[{bounds[1]}, {bounds[2]}]")
         attrs[key] = p.attrs
     return params, attrs
+
+
+_BOUNDS_RE = re.compile(r"\[min: ([^;\]]+); max: ([^\]]+)\]")  # pymeshlab's "128 [min: 0; max: 255]"
 
 
 # ---------------------------------------------------------------------------------------------
