@@ -199,7 +199,7 @@ def _resolved(mesh, params, lattice, skipped, progress, preferred=None):
     if skipped:
         return params.with_(resolution=voxelize.auto_resolution(mesh)), None
     resolution, lattice = _fitting_resolution(mesh, params, lattice, preferred)
-    why = ("the voxel grid the mesh was made on" if lattice else
+    why = ("the voxel grid its surface was made on, by marching cubes" if lattice else
            "the voxel stage's own" if preferred else "from the mesh's mean edge length")
     progress.note(f"resolution {resolution} voxels ({why})")
     return params.with_(resolution=resolution), lattice
@@ -260,9 +260,15 @@ def _noisy(vertices, faces, roughness, progress):
     with progress.step("fine noise"):
         fine = output_choice.fine_noise(trimesh.Trimesh(vertices, faces, process=False))
     if fine < output_choice.CLEAN_FINE_NOISE:
-        progress.note(f"fine noise {fine:.3f} (under {output_choice.CLEAN_FINE_NOISE:g}): no fine pass, "
+        progress.note(f"fine noise: each face turns {_degrees(fine):.1f}° from its most parallel neighbour "
+                      f"(median; noise from {_degrees(output_choice.CLEAN_FINE_NOISE):.1f}°): no fine pass, "
                       "the mesh comes back as it was (--fine-pass on smooths it anyway)")
     return fine >= output_choice.CLEAN_FINE_NOISE
+
+
+def _degrees(normal_difference):
+    """The angle between unit normals ``normal_difference`` apart (`normal_filtering.noise_level`)."""
+    return float(np.degrees(2 * np.arcsin(min(normal_difference / 2, 1.0))))
 
 
 def _fitting_resolution(mesh, params, lattice, preferred=None):
