@@ -400,7 +400,7 @@ def test_the_automatic_grid_of_a_voxel_mesh_is_its_own():
     noisy, masks, grid = _voxel_mesh(resolution=100)
     progress = Progress(enabled=False)
     _, result, used = mesh_pipeline.denoise_mesh_detailed(noisy, progress=progress)
-    assert any("the voxel grid the mesh was made on" in n for n in progress.notes)
+    assert any("the voxel grid its surface was made on" in n for n in progress.notes)
     assert used.pitch == pytest.approx(grid.pitch, rel=1e-5)
     offset = (used.origin - grid.origin) / grid.pitch
     assert np.allclose(offset, np.round(offset), atol=1e-3)
