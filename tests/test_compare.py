@@ -14,7 +14,7 @@ from skelfilter.errors import InputError, ParameterError
 from skelfilter.evaluation.comparison import report
 from skelfilter.evaluation.comparison.config import Method, default_config_path, load_config
 from skelfilter.evaluation.comparison.methods import run_method
-from skelfilter.evaluation.comparison.run import Reporter, run_compare
+from skelfilter.evaluation.comparison.run import run_compare
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SMOKE = os.path.join(HERE, "..", "skelfilter", "evaluation", "comparison", "smoke.toml")
@@ -94,7 +94,9 @@ def test_best_values_and_failures_in_tables():
 @pytest.fixture(scope="module")
 def smoke(tmp_path_factory):
     out = str(tmp_path_factory.mktemp("compare"))
-    results = run_compare(load_config(SMOKE), out, Reporter(enabled=False))
+    said = []
+    results = run_compare(load_config(SMOKE), out, said.append)
+    results["said"] = said
     return out, results
 
 
@@ -120,6 +122,10 @@ def test_smoke_run_measures_every_method(smoke):
     assert "noise_removed" not in real and real["chamfer"] > 0
     rows = open(os.path.join(out, "metrics.csv")).read().splitlines()
     assert len(rows) == 1 + sum(len(c["methods"]) for c in results["cases"])
+    # it says what it will run and, after each model but the last, how long the others should take
+    models = len(results["cases"])
+    assert results["said"][0].startswith(f"{models} models x ")
+    assert sum("models done, about" in line for line in results["said"]) == models - 1
     sweep = results["sweep"]["rows"]
     assert [r["t"] for r in sweep] == [4, 8, 12]
     assert all(0 <= r["reconstruction_error"] <= 1 and 0 <= r["bumps_removed"] <= 1 for r in sweep)

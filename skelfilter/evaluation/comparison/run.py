@@ -237,15 +237,26 @@ def run_compare(config, out_dir, say=None):
     return results
 
 
+def _duration(seconds):
+    return f"{seconds:.0f} s" if seconds < 90 else f"{seconds / 60:.0f} min"
+
+
 def _run_compare(config, out_dir, say):
     start = time.perf_counter()
     results = {"config": as_dict(config), "versions": versions(), "cases": []}
     sweep_noise = None
+    cases = len(config.cases)
+    say(f"{cases} models x {len(config.methods)} methods"
+        + (f", then a threshold sweep on {config.sweep_case}" if config.sweep_case else "")
+        + "; the time left is told after each model")
     with ThreadPoolExecutor(max_workers=config.jobs) as pool:
         for i, case in enumerate(config.cases):
-            say(f"case {i + 1}/{len(config.cases)}: {case.name}")
+            say(f"case {i + 1}/{cases}: {case.name}")
             entry, noise = run_case(case, config, out_dir, say, pool)
             results["cases"].append(entry)
+            if i + 1 < cases:
+                left = (time.perf_counter() - start) / (i + 1) * (cases - i - 1)
+                say(f"{i + 1} of {cases} models done, about {_duration(left)} left for the others")
             if case.name == config.sweep_case:
                 sweep_noise = noise
     if sweep_noise is not None:
