@@ -160,3 +160,19 @@ def test_keep_tree_leaves_no_folder_behind_when_refused(tmp_path):
         batch.denoise_many([str(tmp_path / "a"), str(tmp_path / "b")], str(tmp_path / "out"), to="npy",
                            keep_tree=True)
     assert not (tmp_path / "out").exists()
+
+
+def test_a_cluster_that_cannot_start_is_one_line(tmp_path):
+    import resource
+
+    trimesh.creation.box().export(tmp_path / "a.ply")
+    out = tmp_path / "out"
+
+    def few_files():
+        resource.setrlimit(resource.RLIMIT_NOFILE, (24, resource.getrlimit(resource.RLIMIT_NOFILE)[1]))
+
+    done = subprocess.run([sys.executable, "-m", "skelfilter.cli", "batch", str(tmp_path / "a.ply"), "--out", str(out),
+                           "--workers", "1"], capture_output=True, text=True, timeout=300, preexec_fn=few_files)
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.splitlines() == [done.stderr.strip()] and "too many open files" in done.stderr
+    assert not out.exists()

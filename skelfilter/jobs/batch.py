@@ -13,6 +13,7 @@ not be used (an ``InputError``) and has not changed since, and tries again every
 
 import contextlib
 import csv
+import errno
 import glob
 import json
 import logging
@@ -26,7 +27,7 @@ import time
 from dataclasses import fields
 from multiprocessing import resource_tracker
 
-from skelfilter.errors import InputError, SkelfilterError
+from skelfilter.errors import InputError, ResourceError, SkelfilterError
 from skelfilter.io import output_files
 from skelfilter.jobs import batch_files, denoise_file
 from skelfilter.parameter_fields import build
@@ -116,10 +117,27 @@ def local_cluster(workers=None, directory=None):
         settings["temporary-directory"] = directory
     with dask.config.set(settings):
         # No dashboard; the scheduler's own HTTP routes on a free local port (8787 may be taken).
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                               scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
-                               env=env, local_directory=directory, silence_logs=logging.CRITICAL)
+        try:
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                                   scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+                                   env=env, local_directory=directory, silence_logs=logging.CRITICAL)
+        except (OSError, RuntimeError) as exc:  # distributed reports a worker that could not start so
+            raise ResourceError(f"the local Dask cluster did not start: {_start_failure(exc)}") from None
     return Client(cluster), threads
+
+
+def _start_failure(exc):
+    """Why a cluster did not start, in words: the first system error behind ``exc``, if any."""
+    seen = exc
+    while seen is not None:
+        if isinstance(seen, OSError) and seen.errno == errno.EMFILE:
+            soft = resource.getrlimit(resource.RLIMIT_NOFILE)[0]
+            return (f"too many open files (this process may open {soft}; each worker needs dozens: raise "
+                    "the limit, e.g. ulimit -n 1024)")
+        if isinstance(seen, OSError) and seen.strerror:
+            return seen.strerror.lower()
+        seen = seen.__cause__ or seen.__context__
+    return str(exc) or type(exc).__name__
 
 
 def usable_cores():
