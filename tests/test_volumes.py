@@ -200,19 +200,20 @@ def test_python_api_takes_an_affine():
     assert np.allclose(mesh.bounds, [[102.25, 2.25, -45.5], [112.25, 12.25, -30.5]], atol=0.05)
 
 
-@pytest.mark.parametrize("spacing", [None, (1.0, 1.0, 1.5), (0.7, 1.0, 1.0)])
-def test_a_label_costs_its_box_and_the_output_does_not_depend_on_the_crop(spacing, monkeypatch):
+@pytest.mark.parametrize("spacing, preset", [(None, "default"), ((1.0, 1.0, 1.5), "default"),
+                                             ((0.7, 1.0, 1.0), "default"), ((1.0, 1.0, 1.5), "thesis")])
+def test_a_label_costs_its_box_and_the_output_does_not_depend_on_the_crop(spacing, preset, monkeypatch):
     # a noisy blob in one corner of a much larger scan
     rng = np.random.default_rng(3)
     volume = np.zeros((90, 80, 50), dtype=bool)
     z, y, x = np.ogrid[:90, :80, :50]
     wobble = ndimage.gaussian_filter(rng.normal(size=volume.shape), 1.0) * 2.0  # segmentation-like noise
     volume[((z - 25) / 12.0) ** 2 + ((y - 22) / 10.0) ** 2 + ((x - 18) / 8.0) ** 2 < 1 + wobble] = True
-    cropped = pipeline.denoise_volume(volume, spacing=spacing)
+    cropped = pipeline.denoise_volume(volume, spacing=spacing, preset=preset)
     assert cropped.mask.shape == cropped.field.shape == volume.shape
     assert cropped.voxels_changed == int((cropped.mask != volume).sum()) > 0
     monkeypatch.setattr(pipeline, "CROP_MARGIN", 1000)  # the box is the whole volume
-    whole = pipeline.denoise_volume(volume, spacing=spacing)
+    whole = pipeline.denoise_volume(volume, spacing=spacing, preset=preset)
     assert np.array_equal(cropped.mask, whole.mask)
     box = pipeline.bounding_box(volume, margin=12)
     assert np.array_equal(cropped.field[box] > 0, whole.field[box] > 0)

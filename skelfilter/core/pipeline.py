@@ -21,8 +21,8 @@ from skelfilter.runtime import worker_threads
 from skelfilter.runtime.memory import check_grid_fits
 from skelfilter.runtime.progress import Progress
 
-# Voxels of the input kept around the set's bounding box: more than the fine pass's widest Gaussian
-# reaches (4 sigma) and than any stage changes beyond the set; the rest of the grid is not looked at.
+# Voxels of the input kept around the set's bounding box, with the foreground stage alone (the default):
+# more than the fine pass's widest Gaussian reaches (4 sigma); the rest of the grid is not looked at.
 CROP_MARGIN = 12
 
 
@@ -200,8 +200,9 @@ def denoise_volume(volume, params=None, progress=None, spacing=None, affine=None
     -------
     DenoiseResult
         ``mask`` (same shape as ``volume``), ``field`` (> 0 inside, 0 on the
-        sub-voxel surface), per-stage skeleton data (on the cubic grid of the set's bounding box
-        widened by `CROP_MARGIN` voxels, the part of the volume the pipeline reads) and step timings.
+        sub-voxel surface), per-stage skeleton data (on the cubic grid of the part of the volume the
+        pipeline reads: with the foreground stage alone, the set's bounding box widened by
+        `CROP_MARGIN` voxels) and step timings.
         The volume's grid is used as it is: ``resolution`` is taken as the longest side of the
         set voxels' bounding box, so a relative threshold is relative to the shape's size.
 
@@ -237,8 +238,10 @@ def _denoise_volume(volume, params, progress, spacing, affine, overrides):
         # as given, one number per entry: the table's check refuses anything but three numbers
         spacing = VolumeParams(spacing=tuple(np.ravel(np.asarray(spacing, dtype=object)).tolist())).spacing
     resample = spacing is not None and not voxel_spacing.is_isotropic(spacing)
-    box = _crop(volume, spacing if resample else None)
-    if any(b.stop - b.start < n for b, n in zip(box, volume.shape)):
+    # The background stage's set is bounded by the grid: its skeleton, and so its output, depend on the
+    # grid's extent; the foreground's do not.
+    box = _crop(volume, spacing if resample else None) if params.stages == "foreground" else None
+    if box is not None and any(b.stop - b.start < n for b, n in zip(box, volume.shape)):
         # A label of a large segmentation: its voxels and their surroundings, not the whole scan.
         result = _denoise_volume(volume[box], params, progress, spacing, None, {})
         mask, field = np.zeros(volume.shape, dtype=bool), np.full(volume.shape, -float(CROP_MARGIN), np.float32)
