@@ -73,12 +73,17 @@ def test_thesis_tables_print_both_columns(tmp_path, table, thesis_figure):
     assert 0 <= ours <= 1 and thesis == thesis_figure  # ours beside the thesis' printed figure
 
 
-def test_the_ball_oracle_removes_a_bump_and_fills_a_dent():
+def _cube_with_a_bump_and_a_dent():
     clean = np.zeros((40, 40, 40), dtype=bool)
     clean[8:32, 8:32, 8:32] = True
     noisy = clean.copy()
     noisy[14:18, 14:18, 32:35] = True  # a bump 3 voxels high on the top face
     noisy[22:26, 22:26, 29:32] = False  # a dent 3 voxels deep in it
+    return clean, noisy
+
+
+def test_the_ball_oracle_removes_a_bump_and_fills_a_dent():
+    clean, noisy = _cube_with_a_bump_and_a_dent()
     out, (centres, radii, clean_radii, noise) = ball_oracle.oracle(noisy, clean)
     assert not (out & ~clean)[14:18, 14:18, 32:35].any()
     assert out[22:26, 22:26, 29:32].all()
@@ -109,11 +114,7 @@ def test_protrusion_beyond_larger_balls_is_the_height_a_ball_stands_out():
 
 
 def test_the_owned_oracle_removes_a_bump_and_fills_a_dent_without_gaps():
-    clean = np.zeros((40, 40, 40), dtype=bool)
-    clean[8:32, 8:32, 8:32] = True
-    noisy = clean.copy()
-    noisy[14:18, 14:18, 32:35] = True  # a bump 3 voxels high on the top face
-    noisy[22:26, 22:26, 29:32] = False  # a dent 3 voxels deep in it
+    clean, noisy = _cube_with_a_bump_and_a_dent()
     voxels, owner, centres, radii = ball_oracle.ray_owners(noisy)
     assert (owner >= 0).mean() > 0.99  # nearly every voxel has its ball
     # a voxel in the middle of the bump belongs to a ball centred in the bump
