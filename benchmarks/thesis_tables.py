@@ -22,7 +22,7 @@ sys.path.insert(0, HERE)
 
 import shapes  # noqa: E402
 
-from skelfilter.core import importance, pipeline, reconstruct, skeleton, stage  # noqa: E402
+from skelfilter.core import importance, pipeline, pruning_rules, reconstruct, skeleton, stage  # noqa: E402
 from skelfilter.core.distance import distance_and_features  # noqa: E402
 from skelfilter.core.noise import add_noise  # noqa: E402
 from skelfilter.evaluation.metrics import thesis_measures  # noqa: E402
@@ -143,7 +143,7 @@ def skeleton_errors(clean, noisy, variants):
     errors = []
     for variant in variants:
         p = stage_params(noisy, edt_filter="none", **variant)
-        key = (p.skeleton, p.usm_smoothing, p.usm_min_density, p.importance, p.cap_voxels)
+        key = (p.skeleton, p.usm_smoothing, p.usm_min_density, p.importance, pruning_rules.search_cap(p))
         if key not in computed:
             computed = {key: stage.skeleton_fields(volume, p, progress)}  # one at a time: they are large
         result = stage.pruned_stage(volume, computed[key].copy(), p, progress).skeleton

@@ -10,6 +10,7 @@ from scipy.sparse import csgraph
 from scipy.spatial import cKDTree
 
 from skelfilter.core.importance import boundary_layer, euclidean_importance, geodesic_estimate, geodesic_importance
+from skelfilter.core.pruning_rules import search_cap
 from skelfilter.errors import ParameterError
 
 
@@ -233,7 +234,7 @@ def test_same_geodesics_as_one_search_per_pair_with_less_effort():
     distance, features = distance_and_features(occupancy)
     voxels = skeleton.ie_skeleton(distance)
     a, b = skeleton.extended_feature_points(occupancy, features, voxels)
-    rho, expanded = geodesic_importance(boundary_layer(occupancy), a, b, DenoiseParams(resolution=96).cap_voxels)
+    rho, expanded = geodesic_importance(boundary_layer(occupancy), a, b, search_cap(DenoiseParams(resolution=96)))
     assert len(voxels) == 62520
     assert hashlib.sha256(rho.tobytes()).hexdigest()[:16] == "0f7647461ca1c999"
     assert expanded.sum() <= 0.97 * 5_395_611

@@ -143,3 +143,16 @@ def test_a_meshlab_child_dies_with_its_parent(tmp_path, sig, code, word):
         assert set(glob.glob(os.path.join(tempfile.gettempdir(), "skelfilter-meshlab-*"))) == folders
     assert all(_gone(c) for c in children)
     assert not (tmp_path / "out.ply").exists()
+
+
+def test_an_interrupt_inside_a_library_import_acts_once_it_is_loaded(tmp_path):
+    """A compiled library interrupted half loaded spoiled the exit (open3d: exit 1 after "interrupted");
+    `extras.load` holds the signal until the import ends, then it acts."""
+    (tmp_path / "signalled_while_loading.py").write_text(
+        "import os, signal\nos.kill(os.getpid(), signal.SIGINT)\nloaded = True\n")
+    code = ("import sys\nfrom skelfilter.runtime import extras, signals\nsignals.install_handlers()\n"
+            "try:\n    extras.load('signalled_while_loading')\nexcept signals.Interrupted:\n"
+            "    print(sys.modules['signalled_while_loading'].loaded)\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                          env={**os.environ, "PYTHONPATH": f"{tmp_path}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"})
+    assert (proc.returncode, proc.stdout) == (0, "True\n"), proc.stderr

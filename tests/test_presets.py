@@ -9,6 +9,7 @@ import trimesh
 from conftest import load
 
 from skelfilter import add_noise, denoise_volume
+from skelfilter.core.pruning_rules import search_cap
 from skelfilter.errors import ParameterError
 from skelfilter.mesh.voxelize import voxelize
 from skelfilter.params import DenoiseParams
@@ -16,14 +17,14 @@ from skelfilter.params import DenoiseParams
 
 def test_presets_fill_only_the_unset_fields():
     thesis = DenoiseParams(preset="thesis", resolution=256)
-    assert (thesis.stages, thesis.threshold_voxels, thesis.cap_voxels) == ("both", 18.0, 36.0)
+    assert (thesis.stages, thesis.threshold_voxels, search_cap(thesis)) == ("both", 18.0, 36.0)
     default = DenoiseParams(resolution=256)
     assert DenoiseParams().resolution is None  # chosen from the mesh
     assert default.stages == "foreground"
     # t is a fraction of the longest side: 30 voxels at 160, the same size in the world at 256
     assert DenoiseParams(resolution=160).threshold_voxels == 30.0
     assert DenoiseParams(resolution=256).threshold_voxels == 48.0
-    assert default.cap_voxels == 48.0 + 8.0
+    assert search_cap(default) == 48.0 + 8.0
     # what is given wins over the preset
     assert DenoiseParams(threshold=12).threshold_voxels == 12.0
     assert DenoiseParams(preset="thesis", stages="foreground").stages == "foreground"

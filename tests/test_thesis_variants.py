@@ -1,6 +1,8 @@
 """The thesis' alternatives to its final pipeline (issue 20): each against a literal or brute-force
 reference on small grids, and each selectable end to end."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 import trimesh
@@ -8,8 +10,10 @@ from scipy import ndimage as ndi
 from test_saliency import _random_skeleton
 
 from skelfilter import add_noise, denoise_volume
+from skelfilter.core import pruning_rules
 from skelfilter.core.edt_filters import filtered_radii, flat_projection, kernel_filter, least_squares
 from skelfilter.core.neighbourhood import OFFSETS_26, unravel
+from skelfilter.core.pruning_rules import search_cap
 from skelfilter.core.saliency import direct_rho_plus, importance_gradient_velocity
 from skelfilter.core.selection import root_component, saliency_measure
 from skelfilter.mesh.voxelize import voxelize
@@ -238,6 +242,13 @@ def test_pruning_rules_remove_bumps_and_keep_the_core(noisy_cube, pruning, veloc
     assert (mask & core).sum() == core.sum()
 
 
+def test_the_pruning_parameter_offers_every_rule_of_the_registry():
+    choices = {f.name: f for f in dataclasses.fields(DenoiseParams)}["pruning"].metadata["choices"]
+    assert set(choices) == set(pruning_rules.RULES)
+    assert all(rule.derivative in (pruning_rules.DERIVATIVE_NONE, pruning_rules.DERIVATIVE_CAPPED,
+                                   pruning_rules.DERIVATIVE_FULL) for rule in pruning_rules.RULES.values())
+
+
 def test_rules_without_rho_plus_store_none():
     cube = voxelize(trimesh.creation.box((1.0, 1.0, 1.0)), 32, 12)[0]
     stage = denoise_volume(cube, preset="thesis", stages="foreground", pruning="saliency").stages["foreground"]
@@ -247,10 +258,10 @@ def test_rules_without_rho_plus_store_none():
 
 
 def test_rules_that_read_rho_take_the_cap_as_met(noisy_cube):
-    assert DenoiseParams(preset="thesis", pruning="global").cap_voxels == 36.0  # max(2t, t + 8)
+    assert search_cap(DenoiseParams(preset="thesis", pruning="global")) == 36.0  # max(2t, t + 8)
     for rule in ("derivative", "saliency"):
-        assert DenoiseParams(preset="thesis", pruning=rule).cap_voxels == 72.0  # 4t
-        assert DenoiseParams(preset="thesis", pruning=rule, geodesic_cap=50.0).cap_voxels == 50.0
+        assert search_cap(DenoiseParams(preset="thesis", pruning=rule)) == 72.0  # 4t
+        assert search_cap(DenoiseParams(preset="thesis", pruning=rule, geodesic_cap=50.0)) == 50.0
     cube, noise = noisy_cube
     for rule in ("derivative", "saliency"):  # a cap below the core's rho: the core is whole (46 % lost if sigma_bar 0)
         mask = denoise_volume(noise.noisy, preset="thesis", stages="foreground", edt_filter="none", pruning=rule,

@@ -12,6 +12,7 @@ import time
 
 import trimesh
 
+from skelfilter.core import pruning_rules
 from skelfilter.io import mesh_files
 from skelfilter.io.samples import sample_path
 from skelfilter.mesh import guided_filtering, normal_filtering, voxelize
@@ -34,8 +35,10 @@ def compile_kernels():
                    DenoiseParams(resolution=RESOLUTION, output_mesh="input"),
                    DenoiseParams(resolution=RESOLUTION, preset="thesis")):
         mesh_pipeline.denoise_mesh(noisy, params)
-    # The thesis' alternatives to its final pipeline (their kernels and argument types).
-    for variant in ({"pruning": "direct", "edt_filter": "opening"}, {"edt_filter": "explicit-mean"},
+    # The thesis' alternatives to its final pipeline (their kernels and argument types): every pruning
+    # rule, and the other EDT filters, velocities and skeletons.
+    rules = [{"pruning": name} for name in pruning_rules.RULES if name != DenoiseParams().pruning]
+    for variant in (*rules, {"edt_filter": "opening"}, {"edt_filter": "explicit-mean"},
                     {"edt_filter": "least-squares", "velocity": "importance-gradient"},
                     {"skeleton": "usm", "velocity": "unified"}):
         mesh_pipeline.denoise_mesh(noisy, DenoiseParams(resolution=RESOLUTION, preset="thesis", **variant))

@@ -34,7 +34,7 @@ def root_component(selected, adjacency, rho, radius=None, candidates=None):
     negative and the literal root would select nothing); and each connected component of the skeleton
     gets its own root, since the thesis defines the operator on a shape of one component and a shape of
     several would otherwise lose every body but one. Ties of ``rho`` (geodesic searches stop at a cap,
-    `DenoiseParams.cap_voxels`, so the whole core can share the largest value) go to the largest
+    `pruning_rules.search_cap`, so the whole core can share the largest value) go to the largest
     ``radius`` (``D``), the middle of the core, then to the first voxel. Where ``candidates`` is given,
     the root is among the selected candidates of a component if it has any: the pipeline leaves out the
     voxels whose feature points lie on different boundary components (a cavity the noise closed off,

@@ -6,10 +6,21 @@ split lets an experiment prune one skeleton under several rules without recomput
 """
 
 from dataclasses import dataclass, replace
+from functools import partial
 
 import numpy as np
 
-from skelfilter.core import edt_filters, importance, reconstruct, saliency, selection, skeleton, surface_field, unified
+from skelfilter.core import (
+    edt_filters,
+    importance,
+    pruning_rules,
+    reconstruct,
+    saliency,
+    selection,
+    skeleton,
+    surface_field,
+    unified,
+)
 from skelfilter.core.distance import distance_and_features
 from skelfilter.core.neighbourhood import unravel
 
@@ -83,7 +94,7 @@ def skeleton_fields(volume, params, progress):
         expansions = None
         if params.importance == "geodesic":
             rho, expansions = importance.geodesic_importance(
-                importance.boundary_layer(volume), a_flat, b_flat, params.cap_voxels
+                importance.boundary_layer(volume), a_flat, b_flat, pruning_rules.search_cap(params)
             )
         else:
             if params.importance == "estimate":
@@ -93,7 +104,7 @@ def skeleton_fields(volume, params, progress):
             # Feature points on separate surfaces (object and frame) are
             # infinitely far apart along the boundary, whatever the proxy says.
             far = importance.disconnected_pairs(importance.boundary_layer(volume), a_flat, b_flat)
-            rho[far] = np.float32(params.cap_voxels)
+            rho[far] = np.float32(pruning_rules.search_cap(params))
     return SkeletonFields(distance, voxels, a_flat, b_flat, adjacency, rho, expansions)
 
 
@@ -103,37 +114,22 @@ def pruned_stage(volume, fields, params, progress):
     shape = volume.shape
     distance, voxels, a_flat, b_flat, adjacency, rho, expansions = fields.take()
     radius = distance.reshape(-1)[voxels]
-    cap = float(np.float32(params.cap_voxels))  # rho is float32: the value the longer searches were given
-    sigma_bar = rho_plus = np.full(len(voxels), np.nan, dtype=np.float32)
-    if params.pruning != "saliency":
+    rule = pruning_rules.RULES[params.pruning]
+    cap = float(np.float32(pruning_rules.search_cap(params)))  # rho is float32: the value the searches were given
+    sigma_bar = np.full(len(voxels), np.nan, dtype=np.float32)
+    v = None
+    if rule.derivative != pruning_rules.DERIVATIVE_NONE:
         with progress.step("derivative measure"):
             v = _velocity(params, volume, distance, voxels, a_flat, b_flat, rho)
             sigma_bar = saliency.derivative_measure(
                 rho, distance, voxels, v, adjacency, params.derivative_guard,
                 min_cosine=saliency.STREAM_COSINE, min_rho=params.derivative_min_rho,
-                max_rho=cap if params.pruning == "derivative" else np.inf,
+                max_rho=cap if rule.derivative == pruning_rules.DERIVATIVE_CAPPED else np.inf,
             )
     with progress.step("pruning"):
-        if params.pruning == "global":
-            # Eq. 5.6; with rho_plus_from 'ahead' restricted to the neighbours ahead along v, the
-            # cone that the derivative measure steps in (the streamlines of eq. 5.1).
-            ahead = params.rho_plus_from == "ahead"
-            rho_plus = saliency.rho_plus(
-                rho, sigma_bar, adjacency, params.k, velocity=v if ahead else None, skeleton=voxels, shape=shape,
-                min_cosine=saliency.STREAM_COSINE, min_rho=params.derivative_min_rho,
-            )
-        elif params.pruning == "direct":
-            rho_plus = saliency.direct_rho_plus(rho, sigma_bar, adjacency, v, voxels, shape, params.k)
-        if params.pruning in ("global", "direct"):
-            kept = rho_plus >= params.threshold_voxels
-        else:
-            if params.pruning == "derivative":  # eq. 4.4: undefined sigma_bar is never ligature
-                selected = (rho >= params.threshold_voxels) & ~(sigma_bar <= params.k)
-            else:  # eq. 3.2; rho at the cap stands for a larger one
-                selected = ((selection.saliency_measure(rho, radius) >= params.saliency_threshold)
-                            | (rho >= cap))
-            joined = ~importance.disconnected_pairs(importance.boundary_layer(volume), a_flat, b_flat)
-            kept = selection.root_component(selected, adjacency, rho, radius, candidates=joined)
+        measures = pruning_rules.SkeletonMeasures(voxels, shape, rho, radius, sigma_bar, v, adjacency, cap)
+        kept, rho_plus = pruning_rules.kept_voxels(measures, params, joined=partial(_joined, volume, a_flat, b_flat))
+        del measures
         if params.thin_radius_voxels is not None:
             kept |= selection.thin_part(voxels, a_flat, b_flat, radius, shape, params.thin_radius_voxels)
             kept &= ~selection.detached_noise(kept, adjacency, radius, params.thin_radius_voxels)
@@ -171,6 +167,11 @@ def pruned_stage(volume, fields, params, progress):
         np.minimum(phi, -1e-3, out=phi, where=outside)
         del outside
     return StageResult(mask=mask, field=phi, skeleton=data)
+
+
+def _joined(volume, a_flat, b_flat):
+    """Skeleton voxels whose two feature points lie on one boundary component."""
+    return ~importance.disconnected_pairs(importance.boundary_layer(volume), a_flat, b_flat)
 
 
 def _velocity(params, volume, distance, voxels, a_flat, b_flat, rho):

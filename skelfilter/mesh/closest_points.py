@@ -2,6 +2,8 @@
 
 import numpy as np
 
+from skelfilter.runtime.extras import load
+
 
 class MeshSurface:
     """A triangle mesh prepared for exact point-to-triangle queries, in the mesh's units.
@@ -15,7 +17,7 @@ class MeshSurface:
     """
 
     def __init__(self, mesh):
-        import open3d as o3d  # imported where used: it needs the system's libusb
+        o3d = load("open3d")  # loaded where used: it needs the system's libusb
 
         self._o3d = o3d
         self._scene = o3d.t.geometry.RaycastingScene()

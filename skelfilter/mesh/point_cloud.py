@@ -28,6 +28,7 @@ import trimesh
 
 from skelfilter.errors import InputError
 from skelfilter.mesh.closest_points import MeshSurface
+from skelfilter.runtime.extras import load
 
 # File suffixes read as point clouds; a PLY is one when it has no faces.
 POINT_FORMATS = ("ply", "pcd", "xyz", "xyzn", "pts")
@@ -68,7 +69,7 @@ def load_points(path):
     InputError
         Unreadable, fewer than `MIN_POINTS` points, non-finite coordinates.
     """
-    import open3d as o3d  # imported where used: it needs the system's libusb
+    o3d = load("open3d")  # loaded where used: it needs the system's libusb
 
     path = str(path)
     if not os.path.isfile(path):
@@ -97,7 +98,7 @@ def load_points(path):
 def _read_text_cloud(path, columns):
     """An XYZ (``columns`` 3) or XYZN (6: positions, then normals) file as open3d's reader gives it:
     single-precision positions (and normals); further columns are ignored."""
-    import open3d as o3d
+    o3d = load("open3d")
 
     try:
         with warnings.catch_warnings():
@@ -220,7 +221,7 @@ def points_to_mesh(cloud, name="the point cloud"):
     InputError
         Too sparse a cloud, or no consistent inside (the surface is not closed or encloses nothing).
     """
-    import open3d as o3d
+    o3d = load("open3d")
 
     points = cloud.point.positions.numpy().astype(np.float64)
     legacy = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
@@ -258,7 +259,7 @@ def points_to_mesh(cloud, name="the point cloud"):
 
 def move_points(cloud, mesh):
     """A copy of ``cloud`` with every point moved to the closest point of ``mesh``, attributes kept."""
-    import open3d as o3d
+    o3d = load("open3d")
 
     points = cloud.point.positions.numpy()
     closest = MeshSurface(mesh).closest_points(points)
@@ -269,7 +270,7 @@ def move_points(cloud, mesh):
 
 def save_points(cloud, path, protect=()):
     """Write a cloud (its format from the suffix), atomically."""
-    import open3d as o3d
+    o3d = load("open3d")
 
     from skelfilter.io.output_files import atomic_write
 

@@ -8,7 +8,7 @@ import numpy as np
 from skelfilter.errors import ParameterError
 from skelfilter.parameter_fields import ABSOLUTE, RELATIVE, check_applies, check_limits
 from skelfilter.parameter_fields import parameter as _p
-from skelfilter.presets import PRESET_CHOICES, PRESETS, RHO_RULE_CAP_FACTOR
+from skelfilter.presets import PRESET_CHOICES, PRESETS
 
 
 @dataclass(frozen=True)
@@ -346,16 +346,6 @@ class DenoiseParams:
         if self.thin_radius_relative >= 1:
             return None
         return self.thin_radius_relative * self.resolution
-
-    @property
-    def cap_voxels(self):
-        """Length at which geodesic searches stop (see ``geodesic_cap``)."""
-        if self.geodesic_cap is not None:
-            return float(self.geodesic_cap)
-        t = self.threshold_voxels
-        if self.pruning in ("derivative", "saliency"):
-            return RHO_RULE_CAP_FACTOR * t
-        return max(PRESETS[self.preset]["cap_factor"] * t, t + 8.0)
 
     @property
     def padding_voxels(self):

@@ -4,6 +4,7 @@ refused in one line that names the extra to install."""
 import importlib
 
 from skelfilter.errors import SkelfilterError
+from skelfilter.runtime.signals import deferred
 
 # The extra (pyproject.toml's optional-dependencies) that installs each optional top-level module.
 EXTRA_OF = {
@@ -43,10 +44,21 @@ def need(module, purpose, extra=None):
     """
     top = module.split(".")[0]
     try:
-        return importlib.import_module(module)
+        return load(module)
     except ModuleNotFoundError as exc:
         if exc.name is None or exc.name.split(".")[0] != top:
             raise
         extra = extra or EXTRA_OF[top]
         raise MissingExtra(f"{purpose}: {top} is not installed; it comes with skelfilter's '{extra}' "
                            f"extra: pip install 'skelfilter[{extra}]'") from None
+
+
+def load(module):
+    """Import ``module`` with SIGINT, SIGTERM and SIGHUP held until it is loaded.
+
+    An interrupt inside the import of a compiled library leaves it half initialised: open3d's then
+    turned the process's exit status into 1 on its way out (the run had said "interrupted", exit 130),
+    VTK's crashed it. Held, the interrupt acts as the import ends.
+    """
+    with deferred():
+        return importlib.import_module(module)

@@ -32,6 +32,7 @@ from skelfilter.io.samples import sample_path
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.mesh import voxelize
 from skelfilter.params import DenoiseParams
+from skelfilter.runtime.extras import load
 from skelfilter.runtime.signals import deferred
 
 COLOUR_RANGE = (0.0, 3.0)  # voxels, the colour maps' scale
@@ -62,8 +63,7 @@ def decimate(mesh, max_faces):
     """Quadric edge collapse (open3d) to at most ``max_faces`` faces, unreferenced vertices dropped."""
     if max_faces == 0 or len(mesh.faces) <= max_faces:
         return mesh
-    import open3d as o3d
-
+    o3d = load("open3d")
     o3 = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(mesh.vertices),
                                    o3d.utility.Vector3iVector(mesh.faces))
     o3 = o3.simplify_quadric_decimation(int(max_faces))
