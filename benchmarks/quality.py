@@ -37,7 +37,7 @@ import shapes
 import trimesh
 from quality_tables import SPLITS
 
-from skelfilter.core.noise import NoiseResult
+from skelfilter.core.synthetic_noise import NoiseResult
 from skelfilter.evaluation import metrics
 from skelfilter.evaluation.comparison import render, report
 from skelfilter.evaluation.comparison.config import Method, slug

@@ -24,7 +24,7 @@ import shapes  # noqa: E402
 
 from skelfilter.core import importance, pipeline, pruning_rules, reconstruct, skeleton, stage  # noqa: E402
 from skelfilter.core.distance import distance_and_features  # noqa: E402
-from skelfilter.core.noise import add_noise  # noqa: E402
+from skelfilter.core.synthetic_noise import add_noise  # noqa: E402
 from skelfilter.evaluation.metrics import thesis_measures  # noqa: E402
 from skelfilter.mesh.voxelize import voxelize  # noqa: E402
 from skelfilter.params import DenoiseParams  # noqa: E402

@@ -28,7 +28,7 @@ _EXPORTS = {
     "core.edt_filters": ["filtered_radii", "flat_projection", "kernel_filter", "least_squares", "minify"],
     "errors": ["InputError", "ParameterError", "ResourceError", "SkelfilterError"],
     "core.importance": ["boundary_layer", "euclidean_importance", "geodesic_estimate", "geodesic_importance"],
-    "core.noise": ["NoiseResult", "add_noise"],
+    "core.synthetic_noise": ["NoiseResult", "add_noise"],
     "params": ["DenoiseParams", "NoiseParams"],
     "core.pipeline": ["DenoiseResult", "denoise_volume"],
     "mesh.pipeline": ["denoise_mesh", "denoise_mesh_detailed", "noisy_mesh"],

@@ -8,7 +8,7 @@ import trimesh
 from scipy import ndimage
 
 from skelfilter.core import pipeline
-from skelfilter.core.noise import add_noise
+from skelfilter.core.synthetic_noise import add_noise
 from skelfilter.errors import ParameterError
 from skelfilter.evaluation import metrics
 from skelfilter.mesh import pipeline as mesh_pipeline

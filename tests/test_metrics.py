@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from skelfilter.core.noise import add_noise
+from skelfilter.core.synthetic_noise import add_noise
 from skelfilter.errors import InputError, ParameterError
 from skelfilter.evaluation import metrics
 from skelfilter.io import mesh_files

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from skelfilter.core.noise import NoiseResult, add_noise
+from skelfilter.core.synthetic_noise import NoiseResult, add_noise
 from skelfilter.errors import InputError, ParameterError
 
 H, R = 3, 2.1

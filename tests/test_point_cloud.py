@@ -7,11 +7,10 @@ import trimesh
 from scipy.spatial import cKDTree
 
 from skelfilter.errors import InputError
-from skelfilter.io import mesh_files
+from skelfilter.io import formats, mesh_files, point_files
 from skelfilter.io.samples import sample_path
 from skelfilter.jobs import denoise_file
 from skelfilter.mesh import pipeline as mesh_pipeline
-from skelfilter.mesh import point_cloud
 from skelfilter.params import DenoiseParams, NoiseParams
 
 RESOLUTION = 96
@@ -38,7 +37,7 @@ def chamfer(a, b):
 
 def test_a_cloud_gives_the_mesh_routes_result(bumpy, tmp_path):
     noisy, grid, path = bumpy
-    assert denoise_file.input_kind(path) == "points"
+    assert formats.input_kind(path) == "points"
     params = DenoiseParams(resolution=RESOLUTION, keep_features="off")  # the route, not the noise decision, is tested
     denoise_file.denoise_file(path, tmp_path / "out.ply", params)
     out = mesh_files.load_mesh(tmp_path / "out.ply")
@@ -80,7 +79,7 @@ def test_moved_points_need_a_cloud(tmp_path):
     trimesh.creation.box().export(tmp_path / "cube.ply")
     with pytest.raises(InputError, match="moved points need a point cloud input"):
         denoise_file.denoise_file(tmp_path / "cube.ply", tmp_path / "o.ply", DenoiseParams(), points=True)
-    assert point_cloud.is_point_cloud(tmp_path / "cube.ply") is False
+    assert formats.is_point_cloud(tmp_path / "cube.ply") is False
 
 
 def _cloud(n=2000, normals=False):
@@ -97,7 +96,7 @@ def test_text_clouds_are_read_as_open3d_reads_them_final_newline_or_not(tmp_path
     o3d.t.io.write_point_cloud(str(path), _cloud(normals=ext == "xyzn"))
     theirs = o3d.t.io.read_point_cloud(str(path))
     path.write_text(path.read_text().rstrip("\n"))  # open3d's own reader aborted the process on this
-    ours = point_cloud.load_points(path)
+    ours = point_files.load_points(path)
     assert set(ours.point) == set(theirs.point)
     for key in theirs.point:
         assert ours.point[key].dtype == theirs.point[key].dtype
@@ -110,7 +109,7 @@ def test_text_clouds_are_read_as_open3d_reads_them_final_newline_or_not(tmp_path
 def test_malformed_text_clouds_are_refused(tmp_path, text, message):
     (tmp_path / "c.xyz").write_text(text)
     with pytest.raises(InputError, match=message):
-        point_cloud.load_points(tmp_path / "c.xyz")
+        point_files.load_points(tmp_path / "c.xyz")
 
 
 @pytest.mark.parametrize("options", [{"write_ascii": True}, {"write_ascii": False},
@@ -118,14 +117,14 @@ def test_malformed_text_clouds_are_refused(tmp_path, text, message):
 def test_a_truncated_pcd_is_refused(tmp_path, options):
     whole = tmp_path / "whole.pcd"
     o3d.t.io.write_point_cloud(str(whole), _cloud(), **options)
-    assert len(point_cloud.load_points(whole).point.positions) == 2000
+    assert len(point_files.load_points(whole).point.positions) == 2000
     data = whole.read_bytes()
     (tmp_path / "cut.pcd").write_bytes(data[:len(data) * 2 // 3])
     with pytest.raises(InputError, match="the point cloud is truncated .*declares 2000 points"):
-        point_cloud.load_points(tmp_path / "cut.pcd")
+        point_files.load_points(tmp_path / "cut.pcd")
 
 
 def test_a_cloud_is_read_with_the_standard_output_closed(tmp_path, monkeypatch):
     o3d.t.io.write_point_cloud(str(tmp_path / "c.pcd"), _cloud())
     monkeypatch.setattr("sys.stdout", None)  # Python's stand-in for a descriptor closed at start
-    assert len(point_cloud.load_points(tmp_path / "c.pcd").point.positions) == 2000
+    assert len(point_files.load_points(tmp_path / "c.pcd").point.positions) == 2000

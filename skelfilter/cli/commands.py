@@ -15,7 +15,7 @@ import warnings
 
 from skelfilter.cli import parser
 from skelfilter.errors import InputError, SkelfilterError
-from skelfilter.io import mesh_files, output_files
+from skelfilter.io import formats, mesh_files, output_files
 from skelfilter.jobs import denoise_file
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.meshlab import descriptions, pymeshlab_filters, scripts
@@ -101,7 +101,7 @@ def _batch(args):
 
 def _noise(args):
     params = _params(ADD_SKELETON_NOISE, args)
-    output_files.check_output(args.output, [args.input], mesh_files.MESH_FORMATS)
+    output_files.check_output(args.output, [args.input], formats.MESH_FORMATS)
     mesh = mesh_files.load_mesh(args.input)
     mesh_files.check_mesh_output(mesh, args.output)
     progress = Progress(enabled=args.progress, shield=True)
@@ -111,7 +111,7 @@ def _noise(args):
 
 def _run_script(args):
     steps = scripts.read_script(args.script)
-    output_files.check_output(args.output, {args.input: "input", args.script: "script"}, mesh_files.MESH_FORMATS)
+    output_files.check_output(args.output, {args.input: "input", args.script: "script"}, formats.MESH_FORMATS)
     mesh = mesh_files.load_mesh(args.input)
     progress = Progress(enabled=args.progress, shield=True)
     layers = scripts.run_steps(steps, mesh, args.timeout, progress)

@@ -85,8 +85,8 @@ def build_parser(full_help=False):
 
     den = sub.add_parser("denoise", help="denoise a mesh (thesis §8.1.1)")
     den.add_argument("input", help="input mesh (PLY, OBJ, STL, OFF, GLB), volume (NIfTI .nii/.nii.gz, "
-                     "NRRD, TIFF stack, .npy) or point cloud (PCD, XYZ, XYZN, PTS, PLY without faces); never "
-                     "modified")
+                     "NRRD, TIFF stack, VTK image data .vti, .npy) or point cloud (PCD, XYZ, XYZN, PTS, PLY "
+                     "without faces); never modified")
     den.add_argument("output", help="output mesh, or for a volume input a volume (the input's grid, header "
                      "and affine) or a mesh in the scanner's world coordinates; written atomically")
     _add_filter_flags(den, SKELETON_SALIENCY_DENOISE, full_help)

@@ -32,7 +32,7 @@ class DenoiseResult:
     field: np.ndarray  # > 0 inside; its 0-level is the sub-voxel surface
     stages: dict = field(default_factory=dict)  # "foreground"/"background" -> StageResult
     noise: dict = field(default_factory=dict)  # "foreground"/"background" -> noise_estimate.NoiseEstimate
-    fine_noise: object = None  # a volume's volume_fine_pass.FineNoise, where the fine pass changed it
+    fine_noise: object = None  # a volume's volume_fine_pass.VoxelRoughness, where the fine pass changed it
     timings: dict = field(default_factory=dict)
     voxels_changed: int = 0  # voxels added or removed: on the voxel grid of a mesh, on a volume's own
 

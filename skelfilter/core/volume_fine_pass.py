@@ -7,7 +7,7 @@ as in 3D Slicer's smoothing effects), but also rounds or removes whatever is as 
 smoothing is wide: a plate, a leg, a rim, a narrow gap.
 
 The fine pass smooths at the widest scale where that is safe, voxel by voxel. It measures the noise
-first (`measure_noise`: the share of the surface where the mask disagrees with its own light
+first (`voxel_roughness`: the share of the surface where the mask disagrees with its own light
 smoothing; a clean voxel model, staircase and all, agrees nearly everywhere and passes through
 unchanged). Small pieces and pockets go (`edt_filters.specks`). Then, from the widest Gaussian of
 `LEVELS` to the narrowest, a level decides every voxel it still may: wherever its smoothing removed
@@ -45,8 +45,8 @@ SPECK_RADIUS = 2.0  # voxels: pieces and pockets smaller than this ball are nois
 
 
 @dataclass(frozen=True)
-class FineNoise:
-    """What `measure_noise` found.
+class VoxelRoughness:
+    """What `voxel_roughness` found.
 
     Attributes
     ----------
@@ -89,7 +89,7 @@ def _boundary(mask):
     return (mask & ~ndimage.binary_erosion(mask)) | (ndimage.binary_dilation(mask) & ~mask)
 
 
-def measure_noise(mask):
+def voxel_roughness(mask):
     """How rough the surface of ``mask`` is, and whether that is noise.
 
     The roughness is the share of the surface voxels of the light smoothing
@@ -97,25 +97,25 @@ def measure_noise(mask):
 
     Returns
     -------
-    FineNoise
+    VoxelRoughness
 
     Examples
     --------
     >>> import numpy as np
     >>> cube = np.zeros((30, 30, 30), bool); cube[5:25, 5:25, 5:25] = True
-    >>> measure_noise(cube).found
+    >>> voxel_roughness(cube).found
     False
     """
     box = bounding_box(mask, margin=4)
     if box is None:
-        return FineNoise(False, 0.0, 0.0, 0.0)
+        return VoxelRoughness(False, 0.0, 0.0, 0.0)
     mask = mask[box]
     light = smoothed(mask, MEASURE_SIGMA)
     boundary = _boundary(light)
     roughness = float(np.count_nonzero(mask[boundary] != light[boundary]) / max(np.count_nonzero(boundary), 1))
     if roughness < LEAST_ROUGHNESS:
-        return FineNoise(False, roughness, 0.0, 0.0)
-    return FineNoise(True, roughness, HEIGHT_AT_ZERO + HEIGHT_PER_ROUGHNESS * roughness,
+        return VoxelRoughness(False, roughness, 0.0, 0.0)
+    return VoxelRoughness(True, roughness, HEIGHT_AT_ZERO + HEIGHT_PER_ROUGHNESS * roughness,
                      min(SIGMA_PER_ROUGHNESS * roughness, LEVELS[0]))
 
 
@@ -139,9 +139,9 @@ def fine_pass(mask):
     -------
     mask : bool ndarray
         The smoothed shape (``mask`` itself, unchanged, when no noise is found).
-    noise : FineNoise
+    noise : VoxelRoughness
     """
-    noise = measure_noise(mask)
+    noise = voxel_roughness(mask)
     if not noise.found:
         return mask, noise
     margin = int(np.ceil(3 * LEVELS[0] + noise.height)) + GROW + 2

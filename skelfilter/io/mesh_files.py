@@ -9,15 +9,14 @@ import numpy as np
 import trimesh
 
 from skelfilter.errors import InputError
+from skelfilter.io.formats import MESH_FORMATS, SINGLE_PRECISION_FORMATS, suffix
 from skelfilter.io.output_files import atomic_write, check_sidecars
-
-MESH_FORMATS = ("ply", "obj", "stl", "off", "glb")
 
 log = logging.getLogger(__name__)
 
 
 def _extension(path):
-    ext = os.path.splitext(str(path))[1].lower().lstrip(".")
+    ext = suffix(path)
     if ext not in MESH_FORMATS:
         raise InputError(f"{path}: unsupported mesh format {ext!r} (use one of {', '.join(MESH_FORMATS)})")
     return ext
@@ -162,7 +161,6 @@ def _from_arrays(vertices, faces, name):
 
 
 # Formats that store coordinates as float32, and the error (in parts of the mesh's size) they may add.
-FLOAT32_FORMATS = ("stl", "glb")
 FLOAT32_ERROR = 1e-4
 
 
@@ -180,7 +178,7 @@ def check_mesh_output(mesh, path):
     if ext == "obj" and getattr(mesh.visual, "material", None) is not None:
         stem = os.path.splitext(os.path.abspath(str(path)))[0]
         check_sidecars(str(path), [f"{stem}.mtl", *glob.glob(glob.escape(stem) + "_0.*")])
-    if ext not in FLOAT32_FORMATS or len(mesh.vertices) == 0:
+    if ext not in SINGLE_PRECISION_FORMATS or len(mesh.vertices) == 0:
         return
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     size = float(np.ptp(vertices, axis=0).max())

@@ -28,7 +28,7 @@ from dataclasses import fields
 from multiprocessing import resource_tracker
 
 from skelfilter.errors import InputError, ResourceError, SkelfilterError
-from skelfilter.io import output_files
+from skelfilter.io import formats, output_files
 from skelfilter.jobs import batch_files, denoise_file
 from skelfilter.parameter_fields import build
 from skelfilter.params import DenoiseParams, VolumeParams
@@ -58,7 +58,7 @@ def _task(input_path, output_path, params, volume_params, numba_threads):
            "bad_input": ""}
     try:
         # --label, --iso and --spacing are for the volumes of a mixed batch.
-        volume = volume_params if denoise_file.input_kind(input_path) == "volume" else None
+        volume = volume_params if formats.input_kind(input_path) == "volume" else None
         summary = denoise_file.denoise_file(input_path, output_path, params, volume,
                                      progress=Progress(enabled=False, shield=True))
         row["voxels_changed"] = summary["voxels_changed"]

@@ -5,7 +5,7 @@ import glob
 import os
 
 from skelfilter.errors import InputError
-from skelfilter.io import output_files
+from skelfilter.io import formats, output_files
 from skelfilter.jobs import denoise_file
 
 
@@ -44,7 +44,7 @@ def _supported(name):
     if os.path.basename(name).startswith("."):
         return False
     try:
-        denoise_file.file_kind(name)
+        formats.file_kind(name)
         return True
     except InputError:
         return False

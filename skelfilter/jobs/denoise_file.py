@@ -9,44 +9,16 @@ coordinates; a point cloud as a closed mesh or as its points moved onto it. Ever
 before anything is read or computed.
 """
 
-import os
 
 import numpy as np
 
 from skelfilter.core import pipeline
 from skelfilter.errors import InputError
-from skelfilter.io import mesh_files, output_files, volume_files
+from skelfilter.io import formats, mesh_files, output_files, point_files, volume_files
 from skelfilter.mesh import marching_cubes, point_cloud
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.params import VolumeParams
 from skelfilter.runtime.progress import Progress
-
-
-def file_kind(path):
-    """``volume``, ``points`` (PCD, XYZ, XYZN, PTS) or ``mesh``, from the name alone.
-
-    Raises
-    ------
-    InputError
-        None of these formats.
-    """
-    if volume_files.volume_format(path) is not None:
-        return "volume"
-    ext = os.path.splitext(str(path))[1].lower().lstrip(".")
-    if ext in mesh_files.MESH_FORMATS:
-        return "mesh"
-    if ext in point_cloud.POINT_FORMATS:
-        return "points"
-    raise InputError(f"{path}: unsupported format {ext!r} (meshes: {', '.join(mesh_files.MESH_FORMATS)}; volumes: "
-                     f"{', '.join(s.lstrip('.') for s in volume_files.VOLUME_SUFFIXES)}; point clouds: "
-                     f"{', '.join(point_cloud.POINT_FORMATS)})")
-
-
-def input_kind(path):
-    """`file_kind`, a PLY file without faces being a point cloud."""
-    kind = file_kind(path)
-    return "points" if kind == "mesh" and point_cloud.is_point_cloud(path) else kind
-
 
 # What each kind of input can become.
 OUTPUTS = {"mesh": ("mesh",), "volume": ("volume", "mesh"), "points": ("mesh", "points")}
@@ -64,12 +36,11 @@ def check_paths(input_path, output_path, save_skeleton=None, points=False):
         An unsupported format, an output the input cannot become, an output that is the input or
         sits in a missing folder, a skeleton file that is not a new .ply, or one asked of a volume.
     """
-    kind_in, kind_out = input_kind(input_path), file_kind(output_path)
+    kind_in, kind_out = formats.input_kind(input_path), formats.file_kind(output_path)
     if points or (kind_in == "points" and kind_out == "points"):
-        if kind_in != "points" or os.path.splitext(str(output_path))[1].lower().lstrip(".") not in \
-                point_cloud.POINT_FORMATS:
+        if kind_in != "points" or formats.suffix(output_path) not in formats.POINT_FORMATS:
             raise InputError(f"{output_path}: moved points need a point cloud input and a point cloud output "
-                             f"({', '.join(point_cloud.POINT_FORMATS)})")
+                             f"({', '.join(formats.POINT_FORMATS)})")
         kind_out = "points"
     if kind_out not in OUTPUTS[kind_in]:
         raise InputError(f"{output_path}: a {kind_in} input gives a {' or a '.join(OUTPUTS[kind_in])} output")
@@ -169,14 +140,14 @@ def _preview_volume(preview, mask, result, affine, progress, output_mesh=None):
 def _denoise_point_file(input_path, output_path, kind_out, params, progress, preview=None):
     """A point cloud: its Poisson solid, denoised to a new closed mesh (there is no input mesh to
     keep), written as a mesh or as the points moved onto it."""
-    cloud = point_cloud.load_points(input_path)
+    cloud = point_files.load_points(input_path)
     with progress.step("Poisson surface"):
         solid = point_cloud.points_to_mesh(cloud, input_path)
     out, result, _ = mesh_pipeline.denoise_mesh_detailed(solid, params.with_(output_mesh="closed"), progress)
     summary = {"kind": "points", "voxels_changed": result.voxels_changed}
     if kind_out == "points":
         with progress.step("points moved"):
-            point_cloud.save_points(point_cloud.move_points(cloud, out), output_path, protect=[input_path])
+            point_files.save_points(point_cloud.move_points(cloud, out), output_path, protect=[input_path])
     else:
         mesh_files.save_mesh(out, output_path, protect=[input_path])
     if preview is not None:

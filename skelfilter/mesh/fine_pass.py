@@ -2,7 +2,7 @@
 
 Fine two-sided noise (a scanner's, or what the voxel stage leaves at the scale of a voxel) is
 removed at the input's own resolution, its strength set by the noise measured on the mesh
-(`skelfilter.mesh.normal_filtering.noise_level`): the face normals are filtered, then the vertices
+(`skelfilter.mesh.normal_filtering.normal_roughness`): the face normals are filtered, then the vertices
 fitted to them. Two normal filters:
 
 - ``bilateral`` (Zheng et al. 2011): `normal_filtering.bilateral_normals`, the first fine pass.
@@ -32,13 +32,13 @@ from skelfilter.mesh.normal_filtering import (
     face_neighbours,
     fit_vertices,
     noise_correlation,
-    noise_level,
+    normal_roughness,
     normalize,
     vertex_adjacency,
 )
 
 NORMAL_FILTERS = ("adaptive", "bilateral")
-# The fine pass's settings at the two ends of the noise level (`noise_level`), linear in between:
+# The fine pass's settings at the two ends of the noise level (`normal_roughness`), linear in between:
 # (noise level, sigma_r / noise level, normal iterations, vertex iterations). Chosen on Gaussian
 # noise of 0.2-0.7 mean edge lengths along the normals of fandisk, the rocker arm and the bunny
 # (benchmarks/literature.py); light noise on organic shapes wants few iterations and a wide range
@@ -86,13 +86,13 @@ ROUND_DISTANCE = 1.05
 
 
 def _position(level):
-    """Where a `noise_level` lies between the two ends of `SCHEDULE`, in [0, 1]."""
+    """Where a `normal_roughness` lies between the two ends of `SCHEDULE`, in [0, 1]."""
     (lo, *_), (hi, *_) = SCHEDULE
     return min(max((level - lo) / (hi - lo), 0.0), 1.0)
 
 
 def schedule(level):
-    """``(sigma_r, normal_iterations, vertex_iterations)`` for a `noise_level`."""
+    """``(sigma_r, normal_iterations, vertex_iterations)`` for a `normal_roughness`."""
     (_, k_lo, n_lo, v_lo), (_, k_hi, n_hi, v_hi) = SCHEDULE
     t = _position(level)
     k = k_lo + t * (k_hi - k_lo)
@@ -100,7 +100,7 @@ def schedule(level):
 
 
 def guided_rounds(level):
-    """The extra rounds of guided filtering and fitting for a `noise_level`, at a guided weight of 1."""
+    """The extra rounds of guided filtering and fitting for a `normal_roughness`, at a guided weight of 1."""
     lo, hi = GUIDED_ROUNDS
     return int(round(lo + _position(level) * (hi - lo)))
 
@@ -118,7 +118,7 @@ def guided_weight(flat):
 def fine_pass(vertices, faces, movable=None, normal_filter="adaptive", least_level=0.0):
     """Feature-preserving smoothing of a mesh's vertices, its strength set by the noise it measures.
 
-    `bilateral_normals` with the `schedule` of the mesh's `noise_level`; with ``normal_filter``
+    `bilateral_normals` with the `schedule` of the mesh's `normal_roughness`; with ``normal_filter``
     ``adaptive``, blended with `guided_filtering.guided_normals` by the `guided_weight` of the
     filtered normals' flat share; then `fit_vertices`; at a weight of 1, `guided_rounds` more rounds
     of guided filtering of the fitted mesh's normals and fitting to them, while they keep the vertices
@@ -135,7 +135,7 @@ def fine_pass(vertices, faces, movable=None, normal_filter="adaptive", least_lev
         Vertices allowed to move.
     normal_filter : {'adaptive', 'bilateral'}
     least_level : float, optional
-        The `noise_level` to smooth as at least (a mesh whose faces come in flat pairs, a depth
+        The `normal_roughness` to smooth as at least (a mesh whose faces come in flat pairs, a depth
         camera's terraces, measures less noise than it carries); where the level reads under it and
         the noise is correlated, `SENSOR_SCHEDULE`.
 
@@ -159,7 +159,7 @@ def fine_pass(vertices, faces, movable=None, normal_filter="adaptive", least_lev
     faces = np.asarray(faces, dtype=np.int64)
     normals, areas, centroids = face_geometry(vertices, faces)
     pairs = face_neighbours(faces, len(vertices))
-    measured = noise_level(normals, pairs)
+    measured = normal_roughness(normals, pairs)
     level = max(measured, least_level)
     sigma_r, normal_iterations, vertex_iterations = schedule(level)
     drift_steps = DRIFT_STEPS

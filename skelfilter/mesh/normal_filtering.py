@@ -194,7 +194,7 @@ def vertex_adjacency(faces, n_vertices):
     return sparse.diags(1.0 / degree) @ adjacency
 
 
-def noise_level(normals, pairs):
+def normal_roughness(normals, pairs):
     """The median over faces of the smallest difference between the face's normal and a neighbour's.
 
     The difference of unit vectors, about twice the sine of half the angle. Noise turns every face

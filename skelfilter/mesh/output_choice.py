@@ -19,7 +19,7 @@ voxel stage, which tells its noise from its steps. Further measurements:
   fills whatever it encloses; when that closes only small holes (the bunny's base), nearly all of
   the voxel surface lies on the input mesh, while an open surface (a relief, a single-view scan)
   gets a cap that lies far from it. Only a solid goes to the voxel stage.
-- `fine_noise` of a voxel mesh: whether its faces turn away from all their neighbours. Voxel meshes
+- `sampled_normal_roughness` of a voxel mesh: whether its faces turn away from all their neighbours. Voxel meshes
   have a flat neighbour for every face; where the voxel stage moved none of its vertices and it
   measures under `CLEAN_FINE_NOISE` it comes back as it was.
 """
@@ -61,7 +61,7 @@ SKELETON_COVERAGE = 0.10
 # to the truth of 32.3/41.9/42.3/48.3/40.6 degrees (cube, fandisk, bunny, airplane decimated; fandisk
 # remeshed) against 22.9/32.1/41.0/50.2/30.7 at 160.
 SKELETON_RESOLUTION = 160
-# The fine pass on a noisy mesh smooths at least as at this `normal_filtering.noise_level` (the least
+# The fine pass on a noisy mesh smooths at least as at this `normal_filtering.normal_roughness` (the least
 # the literature's noisy pairs measure is 0.115): the noise level of meshes whose faces come in flat
 # pairs (depth cameras' terraces, quads split in two) reads near 0 though they carry noise.
 LEAST_FINE_LEVEL = 0.11
@@ -119,11 +119,12 @@ def solid_share(occupancy, mesh, grid):
     return float(np.mean(within(mesh, grid.to_world(rim), NEAR * grid.pitch)))
 
 
-def fine_noise(mesh, sample=SAMPLE, seed=0):
-    """`skelfilter.mesh.normal_filtering.noise_level` of a mesh, on at most ``sample`` of its faces."""
+def sampled_normal_roughness(mesh, sample=SAMPLE, seed=0):
+    """`skelfilter.mesh.normal_filtering.normal_roughness` of a mesh, on at most ``sample`` of its faces."""
     faces = np.asarray(mesh.faces, dtype=np.int64)
     normals = normal_filtering.face_normals(np.asarray(mesh.vertices, dtype=np.float64), faces)
     subset = None
     if len(faces) > sample:
         subset = np.sort(np.random.default_rng(seed).choice(len(faces), sample, replace=False))
-    return normal_filtering.noise_level(normals, normal_filtering.face_neighbours(faces, len(mesh.vertices), subset))
+    pairs = normal_filtering.face_neighbours(faces, len(mesh.vertices), subset)
+    return normal_filtering.normal_roughness(normals, pairs)

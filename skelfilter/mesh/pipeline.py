@@ -6,7 +6,7 @@ import warnings
 import numpy as np
 import trimesh
 
-from skelfilter.core import noise, surface_field
+from skelfilter.core import surface_field, synthetic_noise
 from skelfilter.core.pipeline import DenoiseResult, denoise_padded, padding_from, passes_through, resolve_params
 from skelfilter.errors import InputError, ParameterError, ResourceError
 from skelfilter.io.mesh_files import validate_mesh
@@ -254,11 +254,11 @@ def _kept_vertices(mesh, voxels, params, grid, progress, roughness=None):
 
 def _noisy(vertices, faces, roughness, progress):
     """Whether a mesh is noisy: by its ``roughness`` where measured, else (a voxel mesh) by its
-    `output_choice.fine_noise` (told through ``progress`` where it is clean)."""
+    `output_choice.sampled_normal_roughness` (told through ``progress`` where it is clean)."""
     if roughness is not None:
         return roughness.noisy
     with progress.step("fine noise"):
-        fine = output_choice.fine_noise(trimesh.Trimesh(vertices, faces, process=False))
+        fine = output_choice.sampled_normal_roughness(trimesh.Trimesh(vertices, faces, process=False))
     if fine < output_choice.CLEAN_FINE_NOISE:
         progress.note(f"fine noise: each face turns {_degrees(fine):.1f}° from its most parallel neighbour "
                       f"(median; noise from {_degrees(output_choice.CLEAN_FINE_NOISE):.1f}°): no fine pass, "
@@ -267,7 +267,7 @@ def _noisy(vertices, faces, roughness, progress):
 
 
 def _degrees(normal_difference):
-    """The angle between unit normals ``normal_difference`` apart (`normal_filtering.noise_level`)."""
+    """The angle between unit normals ``normal_difference`` apart (`normal_filtering.normal_roughness`)."""
     return float(np.degrees(2 * np.arcsin(min(normal_difference / 2, 1.0))))
 
 
@@ -327,7 +327,7 @@ def noisy_mesh(mesh, params=None, progress=None, **overrides):
     clean, grid = _voxelize(frame.to_unit(mesh), params.resolution, params.padding_voxels, progress,
                             "`h` and `r` (the padding is h + r + 10)")
     with progress.step("noise"):
-        result = noise.add_noise(clean, p=params.p, r=params.r, h=params.h, l=params.l,
+        result = synthetic_noise.add_noise(clean, p=params.p, r=params.r, h=params.h, l=params.l,
                                  seed=params.seed, dents=params.dents)
     with progress.step("marching cubes"):
         out = marching_cubes.mask_to_mesh(result.noisy, grid)

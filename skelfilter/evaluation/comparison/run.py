@@ -140,7 +140,7 @@ def run_case(case, config, out_dir, say, pool):
 def threshold_sweep(name, noise, config, method, say):
     """skelfilter's errors against the threshold t on one case's noise grid (cf. the thesis' fig. 4.4):
     reconstruction error eq. 6.5 (as 1 - |R ∩ X| / |R ∪ X|), bumps removed, dents filled, clean
-    volume lost. ``noise``: the case's masks (:class:`skelfilter.core.noise.NoiseResult`)."""
+    volume lost. ``noise``: the case's masks (:class:`skelfilter.core.synthetic_noise.NoiseResult`)."""
     base = config.denoise_params(method) if method is not None else DenoiseParams(resolution=config.resolution)
     rows = []
     for t in config.sweep_thresholds:

@@ -38,7 +38,7 @@ def noise_removed(result, noise, grid, result_volume=None):
     result : trimesh.Trimesh
     noise : NoiseResult-like
         Any object with boolean volumes ``bumps`` and ``dents`` of ``grid.shape``
-        (e.g. `skelfilter.core.noise.NoiseResult`).
+        (e.g. `skelfilter.core.synthetic_noise.NoiseResult`).
     grid : voxelize.Grid
 
     Returns

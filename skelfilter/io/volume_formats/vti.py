@@ -1,0 +1,71 @@
+"""VTK image data (``.vti``, what ParaView and 3D Slicer's VTK export write) through VTK's XML
+reader and writer: the point data's first scalar array (or its only array) on the image's grid, whose
+origin, spacing and direction make the affine; the array's name is written back."""
+
+import numpy as np
+
+from skelfilter.errors import InputError
+from skelfilter.io.volume import Volume, check_claimed_size
+from skelfilter.io.volume_formats import VolumeFormat
+from skelfilter.runtime import native_output
+from skelfilter.runtime.extras import need
+
+_PURPOSE = "VTK image data (.vti)"
+
+
+def _read_vti(path):
+    xml = need("vtkmodules.vtkIOXML", _PURPOSE, extra="volumes")
+    support = need("vtkmodules.util.numpy_support", _PURPOSE, extra="volumes")
+    reader = xml.vtkXMLImageDataReader()
+    if not reader.CanReadFile(path):
+        raise InputError(f"{path}: malformed VTI file (not VTK XML image data)")
+    reader.SetFileName(path)
+    with native_output.captured() as said:
+        reader.UpdateInformation()
+        extent = reader.GetOutputInformation(0).Get(reader.GetExecutive().WHOLE_EXTENT())
+        dims = tuple(int(extent[2 * i + 1]) - int(extent[2 * i]) + 1 for i in range(3)) if extent else (0, 0, 0)
+        check_claimed_size(path, dims, 1)  # an impossible size is refused before the data is read
+        reader.Update()
+        complaint = " | ".join(line.strip() for line in native_output.plain(said()).splitlines() if "ERROR" in line)
+    image = reader.GetOutput()
+    arrays = image.GetPointData()
+    scalars = arrays.GetScalars() or (arrays.GetArray(0) if arrays.GetNumberOfArrays() else None)
+    if reader.GetErrorCode() or scalars is None or min(image.GetDimensions()) < 1:
+        raise InputError(f"{path}: malformed VTI file ({complaint[:300] or 'no point data could be read'})")
+    if scalars.GetNumberOfComponents() != 1:
+        raise InputError(f"{path}: its point data {scalars.GetName()!r} has {scalars.GetNumberOfComponents()} "
+                         "components; a volume has one value per voxel")
+    dims = image.GetDimensions()
+    data = support.vtk_to_numpy(scalars).reshape(dims[::-1]).transpose(2, 1, 0)  # x varies fastest
+    columns = np.asarray([image.GetDirectionMatrix().GetElement(r, c) for r in range(3) for c in range(3)],
+                         dtype=float).reshape(3, 3) * np.asarray(image.GetSpacing(), dtype=float)
+    affine = np.eye(4)
+    affine[:3, :3] = columns
+    affine[:3, 3] = np.asarray(image.GetOrigin(), dtype=float) + columns @ np.asarray(image.GetExtent()[::2])
+    return Volume(np.ascontiguousarray(data), affine, "vti", {"name": scalars.GetName() or "values"})
+
+
+def _write_vti(tmp, like, data):
+    xml = need("vtkmodules.vtkIOXML", _PURPOSE, extra="volumes")
+    support = need("vtkmodules.util.numpy_support", _PURPOSE, extra="volumes")
+    data_model = need("vtkmodules.vtkCommonDataModel", _PURPOSE, extra="volumes")
+    spacing = like.spacing
+    image = data_model.vtkImageData()
+    image.SetDimensions(*data.shape)
+    image.SetSpacing(*spacing)
+    image.SetOrigin(*like.affine[:3, 3])
+    direction = like.affine[:3, :3] / spacing
+    image.SetDirectionMatrix(*direction.ravel())
+    values = support.numpy_to_vtk(np.ascontiguousarray(data.transpose(2, 1, 0)).ravel(), deep=True)
+    values.SetName((like.header or {}).get("name", "values") if like.format == "vti" else "values")
+    image.GetPointData().SetScalars(values)
+    writer = xml.vtkXMLImageDataWriter()
+    writer.SetFileName(tmp)
+    writer.SetInputData(image)
+    with native_output.captured() as said:
+        written, complaint = writer.Write(), native_output.plain(said()).strip()[:200]
+    if written != 1:
+        raise OSError(f"VTK could not write the image data ({complaint})")
+
+
+FORMAT = VolumeFormat("vti", (".vti",), _read_vti, _write_vti)
