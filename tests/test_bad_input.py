@@ -122,6 +122,8 @@ CASES = [
     (["denoise", "{root}/linked.nrrd", "{out}.nrrd"], "lies outside the header's folder"),
     (["denoise", "{root}/huge.nii", "{out}.nii"], "the header claims a 2000x2000x2000 volume"),
     (["denoise", "{root}/nanlabels.npy", "{out}.npy"], "holds 3 values and NaN voxels, not a mask"),
+    (["denoise", "{root}/code999.nii", "{out}.nii"], "malformed NIFTI file (data code 999 not recognized)"),
+    (["denoise", "{root}/notimage.vti", "{out}.vti"], "malformed VTI file (not VTK XML image data)"),
     (["denoise", "{root}/flat.xyz", "{out}"], "lies in a plane (a flat scan)"),
     (["denoise", "{root}/line.xyz", "{out}"], "lies on a line"),
     (["run-script", "{root}/encoding.mlx", "{in}", "{out}"], "(its encoding: unknown encoding: klingon)"),
@@ -215,6 +217,10 @@ def files(tmp_path_factory):
     huge = nibabel.Nifti1Image(np.zeros((2, 2, 2), np.uint8), np.eye(4))
     huge.header.set_data_shape((2000, 2000, 2000))
     (root / "huge.nii").write_bytes(huge.header.binaryblock + b"\0" * 4 + b"\0" * 64)
+    code999 = bytearray(nibabel.Nifti1Image(np.ones((4, 4, 4), np.uint8), np.eye(4)).to_bytes())
+    code999[70:72] = (999).to_bytes(2, "little")  # the datatype field: no type nibabel knows (it logs first)
+    (root / "code999.nii").write_bytes(bytes(code999))
+    (root / "notimage.vti").write_text('<?xml version="1.0"?>\n<VTKFile type="PolyData"></VTKFile>\n')
     np.save(root / "nanlabels.npy", np.where(np.arange(27) < 3, np.nan, np.arange(27) % 3).reshape(3, 3, 3))
     sphere = trimesh.creation.icosphere(4).vertices
     np.savetxt(root / "flat.xyz", sphere * (1, 1, 0))

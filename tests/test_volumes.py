@@ -261,3 +261,12 @@ def test_a_label_costs_its_box_and_the_output_does_not_depend_on_the_crop(spacin
     assert np.array_equal(cropped.mask, whole.mask)
     box = pipeline.bounding_box(volume, margin=12)
     assert np.array_equal(cropped.field[box] > 0, whole.field[box] > 0)
+
+
+@pytest.mark.parametrize("side", [1, 2, 3, 4])
+def test_a_shape_too_small_for_a_skeleton_comes_back(side):
+    """A cube of 2 or 4 voxels has no IE skeleton at all; it is kept as it is, not a crash."""
+    mask = np.zeros((8, 8, 8), dtype=bool)
+    mask[2:2 + side, 2:2 + side, 2:2 + side] = True
+    out = pipeline.denoise_volume(mask, DenoiseParams()).mask
+    assert out.shape == mask.shape and not (out & ~mask).any()

@@ -143,6 +143,8 @@ def detached_noise(kept, adjacency, radius, max_radius):
     """
     indptr, indices = adjacency
     n = len(kept)
+    if n == 0:  # a shape too small for a skeleton (a cube of 2 or 4 voxels has none)
+        return np.zeros(0, dtype=bool)
     rows = np.repeat(np.arange(n, dtype=np.int32), np.diff(indptr))
     both = kept[rows] & kept[indices]
     graph = csr_matrix((np.ones(int(both.sum()), dtype=np.int8), (rows[both], indices[both])), shape=(n, n))

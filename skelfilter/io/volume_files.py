@@ -11,6 +11,7 @@ input's format, grid, header and affine (`save_volume`), and a label map keeps e
 """
 
 import os
+import warnings
 
 import numpy as np
 
@@ -18,6 +19,7 @@ from skelfilter.errors import InputError, ResourceError
 from skelfilter.io.formats import volume_format, volume_suffixes
 from skelfilter.io.output_files import atomic_write
 from skelfilter.io.volume import Volume
+from skelfilter.runtime import native_output
 from skelfilter.runtime.extras import MissingExtra
 
 __all__ = ["Volume", "load_volume", "merge_label", "save_volume", "select_mask"]
@@ -46,7 +48,7 @@ def load_volume(path, spacing=None):
     if not os.path.isfile(path):
         raise InputError(f"{path}: no such file")
     try:
-        volume = fmt.read(path)
+        volume = _read_quietly(fmt, path)
     except (InputError, ResourceError, MissingExtra):  # a missing reader is no malformed file
         raise
     except MemoryError:
@@ -62,6 +64,22 @@ def load_volume(path, spacing=None):
         volume.affine[:3, :3] = volume.affine[:3, :3] / volume.spacing * np.asarray(spacing, dtype=float)
     if not (np.isfinite(volume.affine).all() and abs(np.linalg.det(volume.affine[:3, :3])) > 0):
         raise InputError(f"{path}: the voxel-to-world matrix is singular or not finite")
+    return volume
+
+
+def _read_quietly(fmt, path):
+    """``fmt.read(path)``, with what its library prints, logs or warns held back: said again as one
+    warning each where the file is read, dropped where it is refused (the error says it once)."""
+    with native_output.captured() as said, warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            volume = fmt.read(path)
+        finally:
+            told = said()
+    lines = [str(w.message) for w in caught] + [line.removeprefix("skelfilter: warning: ").strip()
+                                                for line in native_output.plain(told).splitlines()]
+    for line in dict.fromkeys(line for line in lines if line):
+        warnings.warn(f"{path}: {line}", stacklevel=3)
     return volume
 
 
