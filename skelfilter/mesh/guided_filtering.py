@@ -29,6 +29,7 @@ from numba import prange
 
 from skelfilter.mesh.normal_filtering import face_edges, spatial_weights, squared_difference, weighted_average
 from skelfilter.runtime.compiled import njit
+from skelfilter.runtime.signals import checkpoint
 
 # Normal differences below this (about 6 degrees) count as flat in `flat_share`.
 FLAT_DIFFERENCE = 0.1
@@ -196,5 +197,6 @@ def guided_normals(normals, areas, centroids, pairs, across, sigma_r, iterations
     neighbours = neighbour_lists(pairs, len(normals))
     static = spatial_weights(areas, centroids, pairs)
     for _ in range(iterations):
+        checkpoint()  # an interrupt acts between iterations, not after the whole filter
         normals = weighted_average(normals, areas, pairs, static, guidance(normals, areas, neighbours, across), sigma_r)
     return normals

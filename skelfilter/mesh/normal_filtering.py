@@ -21,6 +21,7 @@ import numpy as np
 from scipy import sparse
 
 from skelfilter.runtime.compiled import njit
+from skelfilter.runtime.signals import checkpoint
 
 
 def face_neighbours(faces, n_vertices, subset=None):
@@ -93,6 +94,7 @@ def bilateral_normals(normals, areas, centroids, pairs, sigma_r, iterations):
     """
     static = spatial_weights(areas, centroids, pairs)
     for _ in range(iterations):
+        checkpoint()  # an interrupt acts between iterations, not after the whole filter
         normals = weighted_average(normals, areas, pairs, static, normals, sigma_r)
     return normals
 
@@ -166,6 +168,7 @@ def fit_vertices(vertices, faces, normals, iterations, movable=None):
     count[count == 0] = 1.0
     face_normals = np.repeat(normals, 3, axis=0)
     for _ in range(iterations):
+        checkpoint()  # an interrupt acts between iterations, not after the whole filter
         centroids = vertices[faces].mean(axis=1)
         offset = np.repeat(centroids, 3, axis=0) - vertices[flat]
         push = face_normals * np.einsum("ij,ij->i", face_normals, offset)[:, None]

@@ -15,6 +15,7 @@ from scipy import ndimage
 
 from skelfilter.core.neighbourhood import bounding_box
 from skelfilter.mesh.normal_filtering import face_edges, vertex_adjacency
+from skelfilter.runtime.signals import checkpoint
 
 # A face is degenerate when its area falls under this share of the mesh's mean face area.
 DEGENERATE_AREA = 1e-4
@@ -58,6 +59,7 @@ def project_onto_field(points, field, iterations=6, max_step=2.0, level=0.0):
     points = np.array(points, dtype=np.float64)
     level = np.broadcast_to(np.asarray(level, dtype=np.float64), (len(points),))
     for _ in range(iterations):
+        checkpoint()  # an interrupt acts between iterations, not after the whole filter
         value, gradient = sample_field(field, points)
         norm2 = np.einsum("ij,ij->i", gradient, gradient)
         ok = norm2 > 1e-12
@@ -86,6 +88,7 @@ def relax_on_field(points, faces, movable, field, iterations=20, level=0.0):
         return points
     average = vertex_adjacency(faces, len(points))[index]
     for _ in range(iterations):
+        checkpoint()  # an interrupt acts between iterations, not after the whole filter
         target = average @ points
         _, gradient = sample_field(field, points[index])
         normal = gradient / np.maximum(np.linalg.norm(gradient, axis=1, keepdims=True), 1e-12)
@@ -258,6 +261,7 @@ def unfold(vertices, faces, reference_normals, rounds=10):
     vertices = np.array(vertices, dtype=np.float64)
     average = vertex_adjacency(faces, len(vertices))
     for _ in range(rounds):
+        checkpoint()  # an interrupt acts between iterations, not after the whole filter
         folded = folded_faces(vertices, faces, reference_normals)
         if not folded.any():
             return vertices, 0

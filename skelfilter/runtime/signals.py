@@ -89,14 +89,35 @@ def deferred():
     """
     old = block()
     _held["depth"] += 1
+    acted = False
     try:
         yield
+    except Interrupted:
+        acted = True  # at a `checkpoint`: the handler left the signals blocked, and they stay so
+        raise
     finally:
         _held["depth"] -= 1
         if _held["depth"] == 0 and _held["signum"] is not None:
             signum, _held["signum"] = _held["signum"], None
             raise Interrupted(signum)  # the handler left the signals blocked, as it does when it raises
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        if not acted:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def checkpoint():
+    """Inside a `deferred` block, between two kernels of a long step (the iterations of a filter): a
+    signal held so far acts now, instead of when the step ends (a fine pass on millions of faces held
+    a SIGTERM for minutes). Outside one, or with no signal held, nothing happens."""
+    if not _held["depth"]:
+        return
+    if _held["signum"] is None and set(SIGNALS) & signal.sigpending():
+        # Let the waiting signal in: the handler keeps it (and blocks the signals again), or a caller
+        # without the CLI's handlers gets Python's own action, as at the block's end.
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, SIGNALS)
+        signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)
+    if _held["signum"] is not None:
+        signum, _held["signum"] = _held["signum"], None
+        raise Interrupted(signum)
 
 
 @contextmanager
