@@ -4,9 +4,11 @@
 
 A noisy segmentation (a CT or MRI mask thresholded from a noisy image) has bumps, dents, islands and
 pits of one to three voxels together. It is made here as the clean shape's signed distance (voxels,
-> 0 inside) plus a smooth random field (white noise smoothed by a Gaussian of `FIELD_SIGMA` voxels,
-scaled to a standard deviation of ``amplitude`` voxels), thresholded at 0, at the two strengths of
-`STRENGTHS`. Each noisy mask goes through skelfilter's presets (`skelfilter.denoise_volume`) and the
+> 0 inside) plus a smooth random field (white noise smoothed by a Gaussian of ``sigma`` voxels,
+scaled to a standard deviation of ``amplitude`` voxels), thresholded at 0, at the three strengths of
+`STRENGTHS`: weak and strong short noise (sigma 1: islands and pits of 1-3 voxels), and a taller,
+smoother one (amplitude 1.25, sigma 1.75: the bumps and dents of a segmentation made from a noisier
+image). Each noisy mask goes through skelfilter's presets (`skelfilter.denoise_volume`) and the
 baselines of 3D Slicer's smoothing effects: the median over 3x3x3 (Slicer's default) and 5x5x5
 voxels, a Gaussian of sigma 1.5 voxels then a threshold at one half, and opening then closing by a
 ball of radius 1.
@@ -33,8 +35,8 @@ from skelfilter.core import pipeline
 from skelfilter.evaluation import metrics
 from skelfilter.mesh.voxelize import grid_for_bounds, voxelize_on_grid
 
-STRENGTHS = {"weak": 0.6, "strong": 1.0}  # the noise field's standard deviation, voxels
-FIELD_SIGMA = 1.0  # voxels: the smoothing of the white noise (islands and pits of 1-3 voxels)
+# (the noise field's standard deviation, the Gaussian smoothing of its white noise), voxels
+STRENGTHS = {"weak": (0.6, 1.0), "strong": (1.0, 1.0), "smooth": (1.25, 1.75)}
 PADDING = 6
 SHAPES = ("fandisk", "rocker-arm", "bunny", "block", "u-channel", "airplane", "quadruped", "chair", "spot",
           "l-bracket", "stool")
@@ -53,9 +55,10 @@ def signed_distance(mask):
     return np.where(mask, ndimage.distance_transform_edt(mask) - 0.5, -(ndimage.distance_transform_edt(~mask) - 0.5))
 
 
-def segmentation_noise(mask, amplitude, seed):
-    """``mask``'s signed distance plus a smooth random field of standard deviation ``amplitude``, > 0."""
-    field = ndimage.gaussian_filter(np.random.default_rng(seed).standard_normal(mask.shape), FIELD_SIGMA)
+def segmentation_noise(mask, amplitude, sigma, seed):
+    """``mask``'s signed distance plus a random field smoothed at ``sigma`` of standard deviation
+    ``amplitude``, > 0."""
+    field = ndimage.gaussian_filter(np.random.default_rng(seed).standard_normal(mask.shape), sigma)
     field *= amplitude / field.std()
     return signed_distance(mask) + field > 0
 
@@ -115,7 +118,7 @@ def pictures(resolution, path, cases=PICTURE_CASES):
     fig = plt.figure(figsize=(3.2 * len(PICTURE_METHODS), 3.2 * len(cases)), dpi=100)
     for row, (shape, strength) in enumerate(cases):
         clean = clean_mask(shape, resolution)
-        noisy = segmentation_noise(clean, STRENGTHS[strength], 1)
+        noisy = segmentation_noise(clean, *STRENGTHS[strength], 1)
         masks = {"noisy": noisy, "clean": clean, "skelfilter default": pipeline.denoise_volume(noisy).mask,
                  **{name: BASELINES[name](noisy) for name in PICTURE_METHODS if name in BASELINES}}
         grid = Grid(origin=(0.0, 0.0, 0.0), pitch=1.0, shape=clean.shape)
@@ -178,12 +181,13 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--resolution", type=int, default=128)
     p.add_argument("--shapes", default=",".join(SHAPES))
+    p.add_argument("--strengths", default=",".join(STRENGTHS), help=f"of {', '.join(STRENGTHS)}")
     p.add_argument("--out", default=os.path.join(shapes.ROOT, "volume-output"))
     p.add_argument("--pictures", action="store_true", help="also draw thin-featured cases (pictures.png)")
     args = p.parse_args(argv)
     rows = []
     for shape in args.shapes.split(","):
-        for strength in STRENGTHS:
+        for strength in args.strengths.split(","):
             rows.append(run_case(shape, strength, args.resolution))
             m = rows[-1]["methods"]
             print(f"{shape} {strength}: " + ", ".join(f"{k} {v.get('error_ratio', float('nan')):.2f}"
