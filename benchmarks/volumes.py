@@ -83,7 +83,7 @@ def score(out, clean, noisy, thin):
 
 def run_case(shape, strength, resolution, seed=1):
     clean = clean_mask(shape, resolution)
-    noisy = segmentation_noise(clean, STRENGTHS[strength], seed)
+    noisy = segmentation_noise(clean, *STRENGTHS[strength], seed)
     thin = metrics.thin_parts(clean)
     row = {"shape": shape, "strength": strength, "split": "held-out" if shape in HELD_OUT else "tuning",
            "clean_components": int(ndimage.label(clean, structure=CUBE)[1]),
