@@ -48,7 +48,7 @@ def load_volume(path, spacing=None):
     if not os.path.isfile(path):
         raise InputError(f"{path}: no such file")
     try:
-        volume = _read_quietly(fmt, path)
+        volume, said = _read_quietly(fmt, path)
     except (InputError, ResourceError, MissingExtra):  # a missing reader is no malformed file
         raise
     except MemoryError:
@@ -64,12 +64,15 @@ def load_volume(path, spacing=None):
         volume.affine[:3, :3] = volume.affine[:3, :3] / volume.spacing * np.asarray(spacing, dtype=float)
     if not (np.isfinite(volume.affine).all() and abs(np.linalg.det(volume.affine[:3, :3])) > 0):
         raise InputError(f"{path}: the voxel-to-world matrix is singular or not finite")
+    for line in said:  # the file is read: what its library said is worth a warning
+        warnings.warn(f"{path}: {line}", stacklevel=2)
     return volume
 
 
 def _read_quietly(fmt, path):
-    """``fmt.read(path)``, with what its library prints, logs or warns held back: said again as one
-    warning each where the file is read, dropped where it is refused (the error says it once)."""
+    """``fmt.read(path)`` and what its library printed, logged or warned meanwhile (distinct lines),
+    held back: `load_volume` says them as warnings once the file is accepted, and drops them where it
+    is refused (the error says it once)."""
     with native_output.captured() as said, warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -78,9 +81,7 @@ def _read_quietly(fmt, path):
             told = said()
     lines = [str(w.message) for w in caught] + [line.removeprefix("skelfilter: warning: ").strip()
                                                 for line in native_output.plain(told).splitlines()]
-    for line in dict.fromkeys(line for line in lines if line):
-        warnings.warn(f"{path}: {line}", stacklevel=3)
-    return volume
+    return volume, list(dict.fromkeys(line for line in lines if line))
 
 
 def select_mask(data, label=None, iso=None):
