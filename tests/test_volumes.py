@@ -270,3 +270,20 @@ def test_a_shape_too_small_for_a_skeleton_comes_back(side):
     mask[2:2 + side, 2:2 + side, 2:2 + side] = True
     out = pipeline.denoise_volume(mask, DenoiseParams()).mask
     assert out.shape == mask.shape and not (out & ~mask).any()
+
+
+@pytest.mark.parametrize("dtype, label", [(np.float16, 1), (np.int64, 2**40), (np.uint64, 7)])
+def test_every_volume_format_takes_every_real_type(tmp_path, dtype, label):
+    """A clean label map read from .npy (any real NumPy type) passes through to every format of the
+    table, its values as they were (half floats as single ones); complex data is refused."""
+    labels = np.zeros((12, 12, 12), dtype=dtype)
+    labels[3:9, 3:9, 3:9] = label
+    np.save(tmp_path / "in.npy", labels)
+    for name, fmt in formats.VOLUME_FORMATS.items():
+        out = tmp_path / f"out{fmt.suffixes[0]}"
+        denoise_file.denoise_file(tmp_path / "in.npy", out, DenoiseParams(), VolumeParams(label=label))
+        back = volume_files.load_volume(out).data
+        assert np.array_equal(back, labels.astype(np.float32) if dtype == np.float16 else labels), name
+    np.save(tmp_path / "complex.npy", labels.astype(np.complex64))
+    with pytest.raises(InputError, match="is complex"):
+        denoise_file.denoise_file(tmp_path / "complex.npy", tmp_path / "c.npy", PRUNE)

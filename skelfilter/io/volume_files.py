@@ -15,7 +15,7 @@ import warnings
 
 import numpy as np
 
-from skelfilter.errors import InputError, ResourceError
+from skelfilter.errors import InputError, ResourceError, SkelfilterError
 from skelfilter.io.formats import volume_format, volume_suffixes
 from skelfilter.io.output_files import atomic_write
 from skelfilter.io.volume import Volume
@@ -95,6 +95,8 @@ def select_mask(data, label=None, iso=None):
     """
     if not (np.issubdtype(data.dtype, np.number) or data.dtype == bool):
         raise InputError(f"volume data of type {data.dtype} is not numeric")
+    if np.issubdtype(data.dtype, np.complexfloating):
+        raise InputError(f"volume data of type {data.dtype} is complex: a shape needs real values")
     if label is not None:
         mask, empty = data == label, f"label {label} selects no voxel"
     elif iso is not None:
@@ -129,8 +131,28 @@ def save_volume(path, like, data, protect=()):
     fmt = volume_format(path)
     if fmt is None:
         raise InputError(f"{path}: not a volume file (use {', '.join(volume_suffixes())})")
+    data = _storable(data)
+
+    def write(tmp):
+        try:
+            fmt.write(tmp, like, data)
+        except (OSError, MemoryError, SkelfilterError):
+            raise
+        except Exception as exc:  # each library refuses the types it has no code for in its own way
+            raise InputError(f"{path}: a {fmt.name.upper()} file cannot hold this volume's values (type "
+                             f"{data.dtype}: {str(exc) or type(exc).__name__}); choose another output format") \
+                from None
+
+    atomic_write(str(path), write, protect)
+
+
+def _storable(data):
+    """``data`` in a type every volume format stores: a mask as bytes, half floats as single ones
+    (NIfTI, NRRD and VTK have no half floats)."""
     if data.dtype == bool:
-        data = data.astype(np.uint8)
-    atomic_write(str(path), lambda tmp: fmt.write(tmp, like, data), protect)
+        return data.astype(np.uint8)
+    if data.dtype == np.float16:
+        return data.astype(np.float32)
+    return data
 
 

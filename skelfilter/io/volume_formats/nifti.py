@@ -25,7 +25,7 @@ def _write_nifti(tmp, like, data):
     nibabel = need("nibabel", "NIfTI volumes")
 
     header = like.header.copy() if like.format == "nifti" else None
-    image = nibabel.Nifti1Image(data, like.affine, header=header)
+    image = nibabel.Nifti1Image(data, like.affine, header=header, dtype=data.dtype)  # 64-bit types too
     image.header.set_data_dtype(data.dtype)
     image.header.set_slope_inter(1.0, 0.0)  # the values as they are
     image.header["cal_min"], image.header["cal_max"] = float(data.min()), float(data.max())
