@@ -122,6 +122,7 @@ CASES = [
     (["denoise", "{root}/linked.nrrd", "{out}.nrrd"], "lies outside the header's folder"),
     (["denoise", "{root}/huge.nii", "{out}.nii"], "the header claims a 2000x2000x2000 volume"),
     (["denoise", "{root}/nanlabels.npy", "{out}.npy"], "holds 3 values and NaN voxels, not a mask"),
+    (["denoise", "{root}/labels.npy", "{out}.npy", "--label", "1", "--close"], "--output-mesh is for mesh inputs"),
     (["denoise", "{root}/code999.nii", "{out}.nii"], "malformed NIFTI file (data code 999 not recognized)"),
     (["denoise", "{root}/notimage.vti", "{out}.vti"], "malformed VTI file (not VTK XML image data)"),
     (["denoise", "{root}/flat.xyz", "{out}"], "lies in a plane (a flat scan)"),

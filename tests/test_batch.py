@@ -89,7 +89,8 @@ def test_batch_reports_failures_and_a_rerun_skips_what_is_done(inputs, tmp_path)
 
 def test_python_api_and_bad_batches(inputs, tmp_path):
     rows = batch.denoise_many([str(inputs / "mesh1.obj"), str(inputs / "ball.npy")], str(tmp_path), workers=1,
-                              resolution=32, to="ply", spacing=(1.0, 1.0, 2.0))  # the spacing: for the volume
+                              resolution=32, to="ply", spacing=(1.0, 1.0, 2.0),  # the spacing: for the volume
+                              output_mesh="closed")  # and the mesh output's choice for the mesh
     assert [row["status"] for row in rows] == ["ok", "ok"]
     assert mesh_files.load_mesh(tmp_path / "ball.ply").is_watertight  # a volume to a mesh
     with pytest.raises(InputError, match="no such file or folder"):

@@ -225,6 +225,9 @@ def _denoise_volume(volume, params, progress, spacing, affine, overrides):
     params = resolve_params(params, **overrides)
     if params.normal_filter != "adaptive":
         raise ParameterError("`normal_filter` is for meshes: a volume's fine pass smooths the mask itself")
+    if params.output_mesh != DenoiseParams(preset=params.preset).output_mesh:
+        raise ParameterError("`output_mesh` is for mesh inputs (the CLI's --close too): a volume's output is its "
+                             "mask, or its marching cubes for a mesh output file")
     volume = np.asarray(volume)
     if volume.ndim != 3:
         raise InputError(f"a volume must be 3-D, got shape {volume.shape}")

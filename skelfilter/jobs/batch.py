@@ -57,8 +57,13 @@ def _task(input_path, output_path, params, volume_params, numba_threads):
     row = {"input": input_path, "output": output_path, "status": "ok", "error": "", "voxels_changed": "",
            "bad_input": ""}
     try:
-        # --label, --iso and --spacing are for the volumes of a mixed batch.
-        volume = volume_params if formats.input_kind(input_path) == "volume" else None
+        # --label, --iso and --spacing are for the volumes of a mixed batch, the mesh output's and
+        # normal filter's choices for its meshes.
+        volume = None
+        if formats.input_kind(input_path) == "volume":
+            volume = volume_params
+            params = params.with_(output_mesh=DenoiseParams(preset=params.preset).output_mesh,
+                                  normal_filter=DenoiseParams().normal_filter)
         summary = denoise_file.denoise_file(input_path, output_path, params, volume,
                                      progress=Progress(enabled=False, shield=True))
         row["voxels_changed"] = summary["voxels_changed"]
