@@ -123,6 +123,8 @@ CASES = [
     (["denoise", "{root}/huge.nii", "{out}.nii"], "the header claims a 2000x2000x2000 volume"),
     (["denoise", "{root}/nanlabels.npy", "{out}.npy"], "holds 3 values and NaN voxels, not a mask"),
     (["denoise", "{root}/labels.npy", "{out}.npy", "--label", "1", "--close"], "--output-mesh is for mesh inputs"),
+    (["denoise", "{root}/beyondsingle.xyz", "{out}"], "numbers too large for the reader"),
+    (["denoise", "{root}/hugespacing.vti", "{out}.vti"], "the voxel-to-world matrix is singular or not finite"),
     (["denoise", "{root}/code999.nii", "{out}.nii"], "malformed NIFTI file (data code 999 not recognized)"),
     (["denoise", "{root}/notimage.vti", "{out}.vti"], "malformed VTI file (not VTK XML image data)"),
     (["denoise", "{root}/flat.xyz", "{out}"], "lies in a plane (a flat scan)"),
@@ -221,6 +223,14 @@ def files(tmp_path_factory):
     code999 = bytearray(nibabel.Nifti1Image(np.ones((4, 4, 4), np.uint8), np.eye(4)).to_bytes())
     code999[70:72] = (999).to_bytes(2, "little")  # the datatype field: no type nibabel knows (it logs first)
     (root / "code999.nii").write_bytes(bytes(code999))
+    beyond_single = np.random.default_rng(0).random((1200, 3))
+    beyond_single[5] = 1e39
+    np.savetxt(root / "beyondsingle.xyz", beyond_single)
+    import pyvista
+
+    huge_spacing = pyvista.ImageData(dimensions=(6, 6, 6), spacing=(1e300, 1.0, 1.0))
+    huge_spacing.point_data["mask"] = np.ones(216, dtype=np.uint8)
+    huge_spacing.save(root / "hugespacing.vti")
     (root / "notimage.vti").write_text('<?xml version="1.0"?>\n<VTKFile type="PolyData"></VTKFile>\n')
     np.save(root / "nanlabels.npy", np.where(np.arange(27) < 3, np.nan, np.arange(27) % 3).reshape(3, 3, 3))
     sphere = trimesh.creation.icosphere(4).vertices

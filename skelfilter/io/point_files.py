@@ -67,9 +67,11 @@ def _read_text_cloud(path, columns):
     except (ValueError, UnicodeDecodeError) as exc:
         raise InputError(f"{path}: malformed point cloud (each line must hold {columns} numbers: "
                          f"{str(exc).splitlines()[0][:200]})") from None
-    cloud = o3d.t.geometry.PointCloud(o3d.core.Tensor(values[:, :3].astype(np.float32)))
+    with np.errstate(over="ignore"):  # beyond single precision: refused as infinite by `load_points`
+        single = values[:, :columns].astype(np.float32)
+    cloud = o3d.t.geometry.PointCloud(o3d.core.Tensor(single[:, :3]))
     if columns == 6:
-        cloud.point.normals = o3d.core.Tensor(values[:, 3:6].astype(np.float32))
+        cloud.point.normals = o3d.core.Tensor(single[:, 3:6])
     return cloud
 
 

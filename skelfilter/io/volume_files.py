@@ -62,7 +62,10 @@ def load_volume(path, spacing=None):
     if spacing is not None:  # checked by params.VolumeParams
         volume.affine = volume.affine.copy()
         volume.affine[:3, :3] = volume.affine[:3, :3] / volume.spacing * np.asarray(spacing, dtype=float)
-    if not (np.isfinite(volume.affine).all() and abs(np.linalg.det(volume.affine[:3, :3])) > 0):
+    with np.errstate(over="ignore", invalid="ignore"):  # huge entries: refused here, in one line
+        whole = np.isfinite(volume.affine).all() and np.isfinite(volume.spacing).all() and \
+            abs(np.linalg.det(volume.affine[:3, :3])) > 0
+    if not whole:
         raise InputError(f"{path}: the voxel-to-world matrix is singular or not finite")
     for line in said:  # the file is read: what its library said is worth a warning
         warnings.warn(f"{path}: {line}", stacklevel=2)

@@ -37,11 +37,12 @@ def _read_vti(path):
                          "components; a volume has one value per voxel")
     dims = image.GetDimensions()
     data = support.vtk_to_numpy(scalars).reshape(dims[::-1]).transpose(2, 1, 0)  # x varies fastest
-    columns = np.asarray([image.GetDirectionMatrix().GetElement(r, c) for r in range(3) for c in range(3)],
-                         dtype=float).reshape(3, 3) * np.asarray(image.GetSpacing(), dtype=float)
+    direction = np.asarray([image.GetDirectionMatrix().GetElement(r, c) for r in range(3) for c in range(3)],
+                           dtype=float).reshape(3, 3)
     affine = np.eye(4)
-    affine[:3, :3] = columns
-    affine[:3, 3] = np.asarray(image.GetOrigin(), dtype=float) + columns @ np.asarray(image.GetExtent()[::2])
+    with np.errstate(over="ignore", invalid="ignore"):  # a huge spacing: refused as not finite by load_volume
+        affine[:3, :3] = direction * np.asarray(image.GetSpacing(), dtype=float)
+        affine[:3, 3] = np.asarray(image.GetOrigin(), dtype=float) + affine[:3, :3] @ np.asarray(image.GetExtent()[::2])
     return Volume(np.ascontiguousarray(data), affine, "vti", {"name": scalars.GetName() or "values"})
 
 
