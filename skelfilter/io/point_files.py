@@ -41,8 +41,7 @@ def load_points(path):
             _check_pcd_whole(path)
         with native_output.captured() as said:
             cloud = o3d.t.io.read_point_cloud(path)
-            said_lines = native_output.plain(said()).splitlines()
-        complaint = " | ".join(line.strip() for line in said_lines if line.strip())[:300]
+            complaint = " | ".join(said())[:300]
         if "positions" not in cloud.point or "fail" in complaint.lower():
             raise InputError(f"{path}: malformed point cloud ({complaint or 'no points could be read'})")
     points = cloud.point.positions.numpy()

@@ -20,7 +20,7 @@ class Volume:
     affine : ndarray, shape (4, 4)
         Index to world coordinates.
     format : str
-        ``nifti``, ``nrrd``, ``tiff`` or ``npy``.
+        Its format's name (a module of :mod:`skelfilter.io.volume_formats`: ``nifti``, ``vti``, ...).
     header : object
         The format's own header (nibabel header, NRRD dict, ImageJ metadata), written back as it is.
     """

@@ -82,8 +82,7 @@ def _read_quietly(fmt, path):
             volume = fmt.read(path)
         finally:
             told = said()
-    lines = [str(w.message) for w in caught] + [line.removeprefix("skelfilter: warning: ").strip()
-                                                for line in native_output.plain(told).splitlines()]
+    lines = [str(w.message) for w in caught] + [line.removeprefix("skelfilter: warning: ") for line in told]
     return volume, list(dict.fromkeys(line for line in lines if line))
 
 

@@ -11,7 +11,8 @@ import tempfile
 @contextlib.contextmanager
 def captured():
     """What C libraries (open3d and its PLY reader) print while the block runs, on the standard output
-    or error, goes to a file instead, read by the function yielded: an error stays one line."""
+    or error, goes to a file instead; the function yielded reads it back as its non-empty lines,
+    stripped and without terminal colour codes: an error stays one line."""
     for stream in (sys.stdout, sys.stderr):
         if stream is not None:  # None: the command was started with it closed
             stream.flush()
@@ -20,7 +21,7 @@ def captured():
         os.dup2(sink.fileno(), 1)
         os.dup2(sink.fileno(), 2)
         try:
-            yield lambda: (sink.seek(0), sink.read().decode("utf-8", "replace"))[1]
+            yield lambda: _lines((sink.seek(0), sink.read().decode("utf-8", "replace"))[1])
         finally:
             for fd, copy in zip((1, 2), saved):
                 if copy is None:  # closed before: closed again
@@ -38,6 +39,6 @@ def _duplicate(fd):
         return None
 
 
-def plain(text):
-    """Text without terminal colour codes."""
-    return re.sub(r"\x1b\[[0-9;]*m", "", text)
+def _lines(text):
+    """The non-empty lines of ``text``, stripped, without terminal colour codes."""
+    return [line.strip() for line in re.sub(r"\x1b\[[0-9;]*m", "", text).splitlines() if line.strip()]

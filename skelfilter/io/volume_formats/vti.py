@@ -26,7 +26,7 @@ def _read_vti(path):
         dims = tuple(int(extent[2 * i + 1]) - int(extent[2 * i]) + 1 for i in range(3)) if extent else (0, 0, 0)
         check_claimed_size(path, dims, 1)  # an impossible size is refused before the data is read
         reader.Update()
-        complaint = " | ".join(line.strip() for line in native_output.plain(said()).splitlines() if "ERROR" in line)
+        complaint = " | ".join(line for line in said() if "ERROR" in line)
     image = reader.GetOutput()
     arrays = image.GetPointData()
     scalars = arrays.GetScalars() or (arrays.GetArray(0) if arrays.GetNumberOfArrays() else None)
@@ -64,7 +64,7 @@ def _write_vti(tmp, like, data):
     writer.SetFileName(tmp)
     writer.SetInputData(image)
     with native_output.captured() as said:
-        written, complaint = writer.Write(), native_output.plain(said()).strip()[:200]
+        written, complaint = writer.Write(), " | ".join(said())[:200]
     if written != 1:
         raise OSError(f"VTK could not write the image data ({complaint})")
 
