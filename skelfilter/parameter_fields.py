@@ -31,6 +31,11 @@ def parameter(default, label, help, unit="", choices=None, measure="", limits=No
     return field(default=default, metadata=meta)
 
 
+def limits_of(cls, name):
+    """The ``(low, high)`` range of parameter ``name`` of the dataclass ``cls``."""
+    return next(f for f in fields(cls) if f.name == name).metadata["limits"]
+
+
 def check_limits(params):
     """Every number field of a parameter dataclass is a finite number of its type within its
     ``limits`` (None passes where the field allows it); the one check every entry point goes through.

@@ -138,6 +138,21 @@ CASES = [
     (["batch", "{in}", "--out", "{root}/summaryfolder"], "summary.csv: is a folder"),
     (["denoise", "{root}/new\nline.ply", "{out}"], "new\\nline.ply: no such file"),
     (["denoise", "{in}", "{dir}/" + "x" * 300 + ".ply"], "file name too long writing"),
+    # round 3: what the readers took silently, and messages that named the wrong cause
+    (["denoise", "{root}/cut.vti", "{out}.vti"], "the VTI file is truncated (it does not end with </VTKFile>)"),
+    (["denoise", "{root}/nanspacing.vti", "{out}.vti"], 'malformed VTI file (Spacing="nan 1 1" is not 3 finite'),
+    (["denoise", "{root}/badorigin.vti", "{out}.vti"], 'malformed VTI file (Origin="0 x 0" is not 3 finite'),
+    (["denoise", "{root}/smallpiece.vti", "{out}.vti"], "holds a piece of extent 0 5 0 5 0 5, not one piece of"),
+    (["denoise", "{root}/faraway.vti", "{out}.vti"], "double precision cannot keep them apart"),
+    (["denoise", "{root}/countlies.pts", "{out}"], "its first line declares 99999999 points, the file holds 1200"),
+    (["denoise", "{root}/hugeheader.npy", "{out}.npy"], "the header claims a 100000x100000x100000 volume"),
+    (["denoise", "{root}/nandirection.nrrd", "{out}.nrrd"], "its space directions (nan 0 0; 0 1 0; 0 0 1) are not"),
+    (["denoise", "{root}/pixdim.nii", "{out}.nii"], "pixdim.nii: its voxels measure 1e+30 x 1 x 1 world units"),
+    (["denoise", "{root}/labels.npy", "{out}.npy", "--label", "1", "--spacing", "1e-300", "1", "1"],
+     "spacing must be three numbers in [1e-06, 1e+06], got 1e-300 1 1"),
+    (["denoise", "{root}/labels.npy", "{out}.npy", "--label", "1", "--spacing", "1", "1", "2000"],
+     "the volume spans 6000 voxels (its 1 x 1 x 2000 voxels made cubic); a grid holds at most 4096"),
+    (["denoise", "{root}/pipe.npy", "{out}.npy"], "is not a regular file (a pipe, device or socket)"),
     (["export-script", "denoise", "{dir}/" + "x" * 300 + ".mlx"], "file name too long writing"),
 ]
 
@@ -231,6 +246,29 @@ def files(tmp_path_factory):
     huge_spacing = pyvista.ImageData(dimensions=(6, 6, 6), spacing=(1e300, 1.0, 1.0))
     huge_spacing.point_data["mask"] = np.ones(216, dtype=np.uint8)
     huge_spacing.save(root / "hugespacing.vti")
+    write_vti = huge_spacing.copy()
+    write_vti.spacing = (1.0, 1.0, 1.0)
+    write_vti.save(root / "whole.vti")
+    whole = (root / "whole.vti").read_bytes()
+    (root / "cut.vti").write_bytes(whole[:len(whole) // 2])
+    (root / "nanspacing.vti").write_bytes(whole.replace(b'Spacing="1 1 1"', b'Spacing="nan 1 1"'))
+    (root / "badorigin.vti").write_bytes(whole.replace(b'Origin="0 0 0"', b'Origin="0 x 0"'))
+    (root / "smallpiece.vti").write_bytes(whole.replace(b'WholeExtent="0 5 0 5 0 5"', b'WholeExtent="0 9 0 5 0 5"'))
+    (root / "faraway.vti").write_bytes(whole.replace(b'Origin="0 0 0"', b'Origin="1e17 0 0"'))
+    (root / "countlies.pts").write_text("99999999\n" + "".join(f"{x} {y} {z}\n" for x, y, z in beyond_single))
+    with open(root / "hugeheader.npy", "wb") as f:
+        np.lib.format.write_array_header_1_0(f, {"descr": "|u1", "fortran_order": False,
+                                                 "shape": (100000, 100000, 100000)})
+        f.write(b"\0" * 64)
+    (root / "nandirection.nrrd").write_bytes(b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nspace: RAS\n"
+                                             b"space directions: (nan,0,0) (0,1,0) (0,0,1)\nencoding: raw\n\n"
+                                             + b"\1" * 8)
+    pixdim = nibabel.Nifti1Image(np.ones((4, 4, 4), np.uint8), None)
+    pixdim.header.set_zooms((1e30, 1.0, 1.0))
+    pixdim.header.set_qform(None, code=0)
+    pixdim.header.set_sform(None, code=0)
+    (root / "pixdim.nii").write_bytes(pixdim.to_bytes())
+    os.mkfifo(root / "pipe.npy")
     (root / "notimage.vti").write_text('<?xml version="1.0"?>\n<VTKFile type="PolyData"></VTKFile>\n')
     np.save(root / "nanlabels.npy", np.where(np.arange(27) < 3, np.nan, np.arange(27) % 3).reshape(3, 3, 3))
     sphere = trimesh.creation.icosphere(4).vertices
@@ -292,8 +330,10 @@ def test_bad_files_in_a_batch_are_their_rows_errors(files, tmp_path):
     r = subprocess.run([sys.executable, "-m", "skelfilter.cli", "batch", *(str(files / n) for n in BAD_FILES),
                         "--out", str(out), "--workers", "1"], capture_output=True, text=True, timeout=600)
     lines = [line for line in r.stderr.splitlines() if line.startswith("skelfilter:")]
-    assert r.returncode == 1 and lines == [f"skelfilter: 0 denoised, 0 skipped (output there), {len(BAD_FILES)} "
-                                           f"failed; see {out / 'summary.csv'}"], r.stderr
+    assert r.returncode == 1 and lines[0] == (f"skelfilter: 0 denoised, 0 skipped (output there), {len(BAD_FILES)} "
+                                              f"failed; see {out / 'summary.csv'}"), r.stderr
+    assert len(lines) == 2 and lines[1].startswith(f"skelfilter: error: {len(BAD_FILES)} of {len(BAD_FILES)} files "
+                                                   f"failed, the first {files}/"), r.stderr
     assert "Traceback" not in r.stderr
     with open(out / "summary.csv", newline="") as f:
         rows = {os.path.basename(row["input"]): row for row in csv.DictReader(f)}
@@ -369,7 +409,7 @@ API_CASES = [
      r"params must be a DenoiseParams or None, got str \(a preset by name: preset='default'\)"),
     (lambda m: mesh_pipeline.noisy_mesh(m, {"h": 3}), ParameterError, "params must be a NoiseParams or None, got dict"),
     (lambda m: pipeline.denoise_volume(np.pad(np.ones((8, 8, 8), bool), 4), spacing="1 1 1"), ParameterError,
-     r"spacing must be three numbers in \(0, 1e6\], got \('1 1 1',\)"),
+     r"spacing must be three numbers in \[1e-06, 1e\+06\], got '1 1 1'"),
     (lambda m: mesh_pipeline.denoise_mesh(trimesh.Trimesh(m.vertices[:, :2], m.faces, process=False)), InputError,
      r"vertices of shape \(n, 3\) expected, got \(8, 2\)"),
     (lambda m: _out_of_memory("skelfilter.mesh.pipeline._denoise_unit",

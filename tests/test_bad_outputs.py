@@ -240,6 +240,30 @@ def test_a_ply_naming_a_missing_texture_warns_in_one_line(tmp_path):
     assert not any("Traceback" in line or line.startswith(" ") for line in lines)
 
 
+@pytest.mark.parametrize("library, texture, warning", [
+    (b"gone.mtl", b"t.png", "its material library 'gone.mtl' is missing; the mesh is read without its materials"),
+    (b"m.mtl", b"gone.png", "its texture 'gone.png' is missing; the mesh is read without it"),
+    (b"m.mtl", b"t\xe9.png", "its texture 't\xe9.png' has a name that is not UTF-8; the mesh is read without it"),
+    (b"../m.mtl", b"t.png", "its material library '../m.mtl' lies outside the file's folder (not read)"),
+    (b"m.mtl", b"t.png", None)], ids=["missing-library", "missing-texture", "latin1-texture", "outside", "whole"])
+def test_an_obj_whose_materials_cannot_be_read_warns_in_one_line(tmp_path, library, texture, warning):
+    folder = tmp_path / "in"
+    folder.mkdir()
+    box = trimesh.creation.box()
+    uv = "".join(f"vt {u:g} {v:g}\n" for u, v in box.vertices[:, :2] + 0.5)
+    faces = "".join(f"f {a}/{a} {b}/{b} {c}/{c}\n" for a, b, c in box.faces + 1)
+    (folder / "a.obj").write_bytes(b"mtllib " + library + b"\nusemtl m\n" + trimesh.exchange.obj.export_obj(
+        box, include_normals=False).encode() + uv.encode() + b"usemtl m\n" + faces.encode())
+    for where in (folder / "m.mtl", tmp_path / "m.mtl"):
+        where.write_bytes(b"newmtl m\nKd 1 0 0\nmap_Kd " + texture + b"\n")
+    Image.new("RGB", (4, 4), (255, 0, 0)).save(folder / "t.png")
+    status, lines = cli("denoise", folder / "a.obj", tmp_path / "out.ply", "--resolution", "32")
+    warnings = [line for line in lines if "warning" in line]
+    expected = [] if warning is None else [f"skelfilter: warning: {folder / 'a.obj'}: {warning}"]
+    assert status == 0 and [w[:len(e)] for w, e in zip(warnings, expected)] == expected and \
+        len(warnings) == len(expected), lines
+
+
 def test_a_meshlab_ply_with_per_wedge_texture_coordinates_is_read(tmp_path):
     pymeshlab = pytest.importorskip("pymeshlab")
     box = trimesh.creation.box()

@@ -70,7 +70,9 @@ def test_batch_reports_failures_and_a_rerun_skips_what_is_done(inputs, tmp_path)
     before = {name: (digest(out / name), os.stat(out / name).st_mtime_ns) for name in good}
 
     again = run_batch(inputs, "--out", out, "--workers", "2", "--resolution", "32", "--quiet")
-    assert again.returncode == 1 and again.stderr == ""  # the corrupt file is still reported
+    assert again.returncode == 1  # the corrupt file is still reported, in one line under --quiet too
+    assert again.stderr.startswith("skelfilter: error: 1 of 9 files failed, the first ") and \
+        again.stderr.count("\n") == 1 and "corrupt.ply: malformed PLY file" in again.stderr, again.stderr
     rows = {os.path.basename(row["input"]): row for row in csv.DictReader(open(out / "summary.csv"))}
     assert all(rows[name]["status"] == "skipped" for name in good)
     assert rows["dies.ply"]["status"] == "ok"  # a dead worker is worth another try

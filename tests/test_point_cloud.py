@@ -112,6 +112,23 @@ def test_malformed_text_clouds_are_refused(tmp_path, text, message):
         point_files.load_points(tmp_path / "c.xyz")
 
 
+def test_a_comment_in_any_encoding_is_skipped(tmp_path):
+    path = tmp_path / "c.xyz"
+    o3d.t.io.write_point_cloud(str(path), _cloud())
+    path.write_bytes(b"# scanned at the caf\xe9\n" + path.read_bytes())
+    assert len(point_files.load_points(path).point.positions) == 2000
+
+
+def test_a_pts_file_holding_fewer_points_than_it_declares_is_refused(tmp_path):
+    whole = tmp_path / "whole.pts"
+    o3d.t.io.write_point_cloud(str(whole), _cloud())
+    assert len(point_files.load_points(whole).point.positions) == 2000
+    lines = whole.read_text().splitlines(keepends=True)
+    (tmp_path / "cut.pts").write_text("".join(lines[:1500]))
+    with pytest.raises(InputError, match="the point cloud is truncated .*declares 2000 points, the file holds 1499"):
+        point_files.load_points(tmp_path / "cut.pts")
+
+
 @pytest.mark.parametrize("options", [{"write_ascii": True}, {"write_ascii": False},
                                      {"write_ascii": False, "compressed": True}], ids=["ascii", "binary", "compressed"])
 def test_a_truncated_pcd_is_refused(tmp_path, options):

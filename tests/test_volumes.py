@@ -191,6 +191,23 @@ def test_vtk_image_data_round_trips_a_label_map(tmp_path):
     assert np.array_equal(volume_files.load_volume(tmp_path / "out.vti").affine, source.affine)
 
 
+def test_a_vti_array_name_with_xml_characters_is_written_back_as_it_was(tmp_path):
+    import pyvista
+
+    mask, _, _ = phantom((1.0, 1.0, 1.0))
+    image = pyvista.ImageData(dimensions=mask.shape)
+    image.point_data["mask"] = mask.astype(np.uint8).ravel(order="F")
+    image.save(tmp_path / "in.vti")
+    name = 'a "b" <c> & d'
+    text = (tmp_path / "in.vti").read_bytes().replace(b'"mask"', b'"a &quot;b&quot; &lt;c&gt; &amp; d"')
+    (tmp_path / "in.vti").write_bytes(text)
+    source = volume_files.load_volume(tmp_path / "in.vti")
+    assert source.header["name"] == name
+    volume_files.save_volume(tmp_path / "out.vti", source, source.data)
+    back = volume_files.load_volume(tmp_path / "out.vti")
+    assert back.header["name"] == name and np.array_equal(back.data, source.data)
+
+
 def test_a_label_map_keeps_every_other_label(tmp_path):
     mask, _, bump = phantom((1.0, 1.0, 1.0))
     labels = np.where(mask, 3, 0).astype(np.int16)

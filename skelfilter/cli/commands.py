@@ -96,7 +96,13 @@ def _batch(args):
     if args.progress is not False:
         print(f"skelfilter: {counts['ok']} denoised, {counts['skipped']} skipped (output there), "
               f"{counts['failed']} failed; see {os.path.join(args.out, 'summary.csv')}", file=sys.stderr)
-    return 1 if counts["failed"] else 0
+    failed = [r for r in rows if r["status"] == "failed"]
+    if failed:  # said under --quiet too: the exit status alone does not say which file
+        first = failed[0]["error"] if failed[0]["error"].startswith(failed[0]["input"]) else \
+            f"{failed[0]['input']}: {failed[0]['error']}"
+        print(f"skelfilter: error: {len(failed)} of {len(rows)} files failed, the first {first}; see "
+              f"{os.path.join(args.out, 'summary.csv')}", file=sys.stderr)
+    return 1 if failed else 0
 
 
 def _noise(args):

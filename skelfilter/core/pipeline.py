@@ -15,7 +15,7 @@ from skelfilter.core import spacing as voxel_spacing
 from skelfilter.core.neighbourhood import bounding_box
 from skelfilter.core.stage import saliency_stage
 from skelfilter.errors import InputError, ParameterError, ResourceError
-from skelfilter.parameter_fields import build
+from skelfilter.parameter_fields import build, limits_of
 from skelfilter.params import DenoiseParams, VolumeParams
 from skelfilter.runtime import worker_threads
 from skelfilter.runtime.memory import check_grid_fits
@@ -253,7 +253,9 @@ def _denoise_volume(volume, params, progress, spacing, affine, overrides):
         return result
     keep = params.unchanged_surface == "input"
     if resample:
-        check_grid_fits(voxel_spacing.isotropic_shape(volume.shape, spacing))
+        cubic_shape = voxel_spacing.isotropic_shape(volume.shape, spacing)
+        _check_side(max(cubic_shape), params, spacing)
+        check_grid_fits(cubic_shape)
         with progress.step("to cubic voxels"):
             input_field, _ = voxel_spacing.to_isotropic(volume, spacing)
             cubic = input_field > 0
@@ -324,10 +326,20 @@ def _cubic_params(volume, params):
     """The parameters for a volume of cubic voxels (its extent as the resolution) and its padding,
     checked to fit in memory."""
     extent = max(s.stop - s.start for s in bounding_box(volume))
+    _check_side(extent, params)
     params = params.with_(resolution=max(extent, 16))
     pad = params.padding_voxels
     check_grid_fits(tuple(s + 2 * pad for s in volume.shape), padding=pad, padding_from=padding_from(params))
     return params, pad
+
+
+def _check_side(voxels, params, spacing=None):
+    """Refuse a grid longer than a grid may be (the largest resolution) along an axis."""
+    most = limits_of(type(params), "resolution")[1]
+    if voxels > most:
+        cubic = f" (its {' x '.join(f'{s:g}' for s in spacing)} voxels made cubic)" if spacing is not None else ""
+        raise InputError(f"the volume spans {voxels} voxels{cubic}; a grid holds at most {most} along an axis: "
+                         "crop the volume, or resample it to coarser voxels")
 
 
 def _denoise_cubic(volume, params, progress):

@@ -10,6 +10,7 @@ import trimesh
 
 from skelfilter.errors import InputError
 from skelfilter.io.formats import MESH_FORMATS, SINGLE_PRECISION_FORMATS, suffix
+from skelfilter.io.input_files import check_input_file
 from skelfilter.io.output_files import atomic_write, check_sidecars
 
 log = logging.getLogger(__name__)
@@ -32,10 +33,7 @@ def load_mesh(path):
     """
     path = str(path)
     ext = _extension(path)
-    if os.path.isdir(path):
-        raise InputError(f"{path}: is a folder, not a mesh file")
-    if not os.path.isfile(path):
-        raise InputError(f"{path}: no such file")
+    check_input_file(path, "mesh")
     if os.path.getsize(path) == 0:
         raise InputError(f"{path}: the file is empty")
     options, wedge_uv = _ply_options(path) if ext == "ply" else ({}, False)
@@ -51,10 +49,49 @@ def load_mesh(path):
     problem = _malformed(path, ext, mesh)
     if problem:
         raise InputError(f"{path}: malformed {ext.upper()} file ({problem})")
+    if ext == "obj":
+        for line in _obj_sidecar_problems(path):
+            log.warning("%s: %s", path, line)
     if wedge_uv:  # the texture coordinates were read on the vertices, wrongly: the geometry alone
         log.warning("%s: its per-wedge texture coordinates are not kept (the mesh is read without them)", path)
         mesh = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
     return validate_mesh(mesh, path)
+
+
+def _obj_sidecar_problems(path):
+    """What of an OBJ file's materials is not read, in words: a material library (``mtllib``) or a
+    texture (``map_Kd``) that is missing, lies outside the OBJ's folder, or has a name that is not
+    UTF-8. trimesh reads the mesh without them and says so only in a debug log."""
+    folder = os.path.realpath(os.path.dirname(os.path.abspath(path)))
+    with open(path, "rb") as f:
+        text = f.read()
+    problems = []
+    for library in re.findall(rb"^[ \t]*mtllib[ \t]+(.+?)[ \t]*\r?$", text, re.M):
+        target, problem = _sidecar(folder, library)
+        if problem:
+            problems.append(f"its material library {problem}; the mesh is read without its materials")
+            continue
+        with open(target, "rb") as f:
+            material = f.read()
+        for texture in re.findall(rb"^[ \t]*map_Kd[ \t]+(?:-\S+[ \t]+\S+[ \t]+)*(.+?)[ \t]*\r?$", material, re.M):
+            _, problem = _sidecar(os.path.dirname(target), texture)
+            if problem:
+                problems.append(f"its texture {problem}; the mesh is read without it")
+    return problems
+
+
+def _sidecar(folder, name):
+    """The file an OBJ or MTL file names, and what keeps it from being read (None when nothing)."""
+    try:
+        text = name.decode("utf-8")
+    except UnicodeDecodeError:
+        return None, f"{name.decode('latin-1')!r} has a name that is not UTF-8"
+    target = os.path.realpath(os.path.join(folder, text))
+    if os.path.commonpath([folder, target]) != folder:
+        return None, f"{text!r} lies outside the file's folder (not read)"
+    if not os.path.isfile(target):
+        return None, f"{text!r} is missing"
+    return target, None
 
 
 def _utf8(path):

@@ -6,13 +6,14 @@ so the plain text formats are read with NumPy; a PCD file is checked whole first
 truncated one with uninitialised points).
 """
 
-import os
+import re
 import warnings
 
 import numpy as np
 
 from skelfilter.errors import InputError
 from skelfilter.io.formats import TEXT_POINT_COLUMNS, suffix
+from skelfilter.io.input_files import check_input_file
 from skelfilter.io.output_files import atomic_write
 from skelfilter.runtime import native_output
 from skelfilter.runtime.extras import load
@@ -31,14 +32,15 @@ def load_points(path):
     o3d = load("open3d")  # loaded where used: it needs the system's libusb
 
     path = str(path)
-    if not os.path.isfile(path):
-        raise InputError(f"{path}: no such file")
+    check_input_file(path, "point cloud")
     ext = suffix(path)
     if ext in TEXT_POINT_COLUMNS:
         cloud = _read_text_cloud(path, TEXT_POINT_COLUMNS[ext])
     else:
         if ext == "pcd":
             _check_pcd_whole(path)
+        elif ext == "pts":
+            _check_pts_whole(path)
         with native_output.captured() as said:
             cloud = o3d.t.io.read_point_cloud(path)
             complaint = " | ".join(said())[:300]
@@ -62,7 +64,8 @@ def _read_text_cloud(path, columns):
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # an empty file: refused below as too sparse
-            values = np.loadtxt(path, dtype=np.float64, usecols=range(columns), ndmin=2, comments="#")
+            values = np.loadtxt(path, dtype=np.float64, usecols=range(columns), ndmin=2, comments="#",
+                                encoding="latin-1")  # numbers are ASCII; a comment may be in any encoding
     except (ValueError, UnicodeDecodeError) as exc:
         raise InputError(f"{path}: malformed point cloud (each line must hold {columns} numbers: "
                          f"{str(exc).splitlines()[0][:200]})") from None
@@ -116,6 +119,22 @@ def _check_pcd_whole(path):
     if held < points:
         raise InputError(f"{path}: the point cloud is truncated (its header declares {points} points, the file "
                          f"holds {held})")
+
+
+def _check_pts_whole(path):
+    """Refuse a PTS file holding fewer point lines than its first line declares (open3d would make
+    up the missing points at the origin, and allocate for them all first)."""
+    with open(path, "rb") as f:
+        first, body = f.readline(), f.read()
+    try:
+        declared = int(first.split()[0])
+    except (IndexError, ValueError):
+        raise InputError(f"{path}: malformed point cloud (a PTS file starts with its number of points, got "
+                         f"{first[:40].decode('latin-1').strip()!r})") from None
+    held = len(re.findall(rb"^[ \t]*[-+.0-9]", body, re.M))
+    if held < declared:
+        raise InputError(f"{path}: the point cloud is truncated (its first line declares {declared} points, the "
+                         f"file holds {held})")
 
 
 def save_points(cloud, path, protect=()):

@@ -10,15 +10,16 @@ input's format, grid, header and affine (`save_volume`), and a label map keeps e
 (`merge_label`).
 """
 
-import os
 import warnings
 
 import numpy as np
 
 from skelfilter.errors import InputError, ResourceError, SkelfilterError
 from skelfilter.io.formats import volume_format, volume_suffixes
+from skelfilter.io.input_files import check_input_file
 from skelfilter.io.output_files import atomic_write
 from skelfilter.io.volume import Volume
+from skelfilter.params.volume_input import SPACING_LIMITS
 from skelfilter.runtime import native_output
 from skelfilter.runtime.extras import MissingExtra
 
@@ -43,10 +44,7 @@ def load_volume(path, spacing=None):
     fmt = volume_format(path)
     if fmt is None:
         raise InputError(f"{path}: not a volume file (use {', '.join(volume_suffixes())})")
-    if os.path.isdir(path):
-        raise InputError(f"{path}: is a folder, not a volume file")
-    if not os.path.isfile(path):
-        raise InputError(f"{path}: no such file")
+    check_input_file(path, "volume")
     try:
         volume, said = _read_quietly(fmt, path)
     except (InputError, ResourceError, MissingExtra):  # a missing reader is no malformed file
@@ -67,9 +65,30 @@ def load_volume(path, spacing=None):
             abs(np.linalg.det(volume.affine[:3, :3])) > 0
     if not whole:
         raise InputError(f"{path}: the voxel-to-world matrix is singular or not finite")
+    low, high = SPACING_LIMITS
+    if not (low <= volume.spacing.min() and volume.spacing.max() <= high):
+        size = " x ".join(f"{s:g}" for s in volume.spacing)
+        raise InputError(f"{path}: its voxels measure {size} world units, outside [{low:g}, {high:g}] (give "
+                         "`spacing` to replace the file's)")
+    _check_precision(path, volume)
     for line in said:  # the file is read: what its library said is worth a warning
         warnings.warn(f"{path}: {line}", stacklevel=2)
     return volume
+
+
+# The share of a voxel that double-precision world coordinates must resolve.
+_WORLD_RESOLUTION = 1e-6
+
+
+def _check_precision(path, volume):
+    """Refuse a grid lying so far from the world origin, for its spacing, that double-precision world
+    coordinates cannot keep its voxels apart (the surface would come back collapsed)."""
+    corners = np.stack(np.meshgrid(*[[0, n - 1] for n in volume.data.shape], indexing="ij"), -1).reshape(-1, 3)
+    reach = float(np.abs(corners @ volume.affine[:3, :3].T + volume.affine[:3, 3]).max())
+    spacing = float(volume.spacing.min())
+    if reach * np.finfo(np.float64).eps > _WORLD_RESOLUTION * spacing:
+        raise InputError(f"{path}: its voxels lie {reach:.3g} from the world origin and {spacing:.3g} apart: "
+                         "double precision cannot keep them apart (move the volume's origin nearer to it)")
 
 
 def _read_quietly(fmt, path):

@@ -10,6 +10,9 @@ from skelfilter.errors import ParameterError
 from skelfilter.parameter_fields import check_limits
 from skelfilter.parameter_fields import parameter as _p
 
+SPACING_LIMITS = (1e-6, 1e6)
+"""The voxel sizes skelfilter works with, in world units (a nanometre to a kilometre in millimetres)."""
+
 
 @dataclass(frozen=True)
 class VolumeParams:
@@ -29,7 +32,9 @@ class VolumeParams:
             raise ParameterError("give label or iso, not both")
         if self.spacing is not None:
             spacing = tuple(self.spacing)
+            low, high = SPACING_LIMITS
             if len(spacing) != 3 or not all(isinstance(s, numbers.Real) and not isinstance(s, (bool, np.bool_))
-                                            and math.isfinite(s) and 0 < s <= 1e6 for s in spacing):
-                raise ParameterError(f"spacing must be three numbers in (0, 1e6], got {self.spacing!r}")
+                                            and math.isfinite(s) and low <= s <= high for s in spacing):
+                got = " ".join(f"{s:g}" if isinstance(s, numbers.Real) else repr(s) for s in spacing)
+                raise ParameterError(f"spacing must be three numbers in [{low:g}, {high:g}], got {got}")
             object.__setattr__(self, "spacing", tuple(float(s) for s in spacing))

@@ -30,9 +30,7 @@ def _read_nrrd(path):
     affine = np.eye(4)
     directions = header.get("space directions")
     if directions is not None:
-        rows = [d for d in np.asarray(directions, dtype=object) if d is not None and np.all(np.isfinite(
-            np.asarray(d, dtype=float)))]
-        affine[:3, :3] = np.asarray(rows, dtype=float).T
+        affine[:3, :3] = _space_directions(path, directions).T
     elif "spacings" in header:
         affine[:3, :3] = np.diag(np.asarray(header["spacings"], dtype=float)[:3])
     if "space origin" in header:
@@ -40,6 +38,18 @@ def _read_nrrd(path):
     if space in _LPS_SPACES:  # world coordinates are RAS, as NIfTI's, whatever the file's convention
         affine = np.diag([-1.0, -1.0, 1.0, 1.0]) @ affine
     return Volume(data, affine, "nrrd", header)
+
+
+def _space_directions(path, directions):
+    """The three spatial axes' vectors, one per row; an axis that is not spatial (``none``, read as
+    None or NaN: the fourth of a 4-D file) is left out."""
+    rows = [np.asarray(d, dtype=float) for d in np.asarray(directions, dtype=object) if d is not None]
+    rows = [d for d in rows if not np.isnan(d).all()]
+    if len(rows) != 3 or any(d.shape != (3,) or not np.isfinite(d).all() for d in rows):
+        shown = "; ".join(" ".join(f"{v:g}" for v in np.ravel(d)) for d in rows)[:120]
+        raise InputError(f"{path}: its space directions ({shown}) are not three vectors of three finite numbers "
+                         "(a 3-D volume in a 3-D space)")
+    return np.stack(rows)
 
 
 def _check_data_file(path, header):

@@ -2,6 +2,10 @@
 reader and writer: the point data's first scalar array (or its only array) on the image's grid, whose
 origin, spacing and direction make the affine; the array's name is written back."""
 
+import mmap
+import re
+from xml.sax.saxutils import escape
+
 import numpy as np
 
 from skelfilter.errors import InputError
@@ -19,6 +23,7 @@ def _read_vti(path):
     reader = xml.vtkXMLImageDataReader()
     if not reader.CanReadFile(path):
         raise InputError(f"{path}: malformed VTI file (not VTK XML image data)")
+    _check_whole(path)
     reader.SetFileName(path)
     with native_output.captured() as said:
         reader.UpdateInformation()
@@ -46,6 +51,42 @@ def _read_vti(path):
     return Volume(np.ascontiguousarray(data), affine, "vti", {"name": scalars.GetName() or "values"})
 
 
+# What VTK's reader reads silently as a default (a bad number) or as zeros (data that is not there).
+_NUMBERS = {b"WholeExtent": (6, int), b"Origin": (3, float), b"Spacing": (3, float), b"Direction": (9, float)}
+
+
+def _check_whole(path):
+    """Refuse what VTK's reader would read without a word: a file cut short (its data would be
+    uninitialised), an ``ImageData`` attribute that is not its count of finite numbers (it would be
+    the default), and image data in several pieces or in a piece smaller than the whole extent (the
+    rest would be zeros)."""
+    with open(path, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as data:
+        if not data[-256:].rstrip().endswith(b"</VTKFile>"):
+            raise InputError(f"{path}: the VTI file is truncated (it does not end with </VTKFile>)")
+        appended = data.find(b"<AppendedData")
+        head = data[:appended if appended >= 0 else len(data)]
+    image = re.search(rb"<ImageData\b([^>]*)>", head)
+    if image is None:
+        raise InputError(f"{path}: malformed VTI file (no <ImageData> element)")
+    attributes = dict(re.findall(rb'(\w+)\s*=\s*"([^"]*)"', image.group(1)))
+    for name, (count, kind) in _NUMBERS.items():
+        if name in attributes or name == b"WholeExtent":
+            text = attributes.get(name, b"").decode("latin-1")
+            try:
+                values = [kind(word) for word in text.split()]
+            except ValueError:
+                values = []
+            if len(values) != count or not np.isfinite(values).all():
+                raise InputError(f"{path}: malformed VTI file ({name.decode()}=\"{text[:60]}\" is not {count} "
+                                 f"finite {'whole ' if kind is int else ''}numbers)")
+    pieces = re.findall(rb'<Piece\b[^>]*?Extent\s*=\s*"([^"]*)"', head)
+    whole = attributes[b"WholeExtent"].split()
+    if len(pieces) != 1 or pieces[0].split() != whole:
+        got = f"{len(pieces)} pieces" if len(pieces) != 1 else f"a piece of extent {pieces[0].decode('latin-1')[:60]}"
+        raise InputError(f"{path}: the VTI file holds {got}, not one piece of its whole extent "
+                         f"{attributes[b'WholeExtent'].decode('latin-1')}; save the image in one piece")
+
+
 def _write_vti(tmp, like, data):
     xml = need("vtkmodules.vtkIOXML", _PURPOSE, extra="volumes")
     support = need("vtkmodules.util.numpy_support", _PURPOSE, extra="volumes")
@@ -58,7 +99,8 @@ def _write_vti(tmp, like, data):
     direction = like.affine[:3, :3] / spacing
     image.SetDirectionMatrix(*direction.ravel())
     values = support.numpy_to_vtk(np.ascontiguousarray(data.transpose(2, 1, 0)).ravel(), deep=True)
-    values.SetName((like.header or {}).get("name", "values") if like.format == "vti" else "values")
+    name = (like.header or {}).get("name", "values") if like.format == "vti" else "values"
+    values.SetName(escape(name, {'"': "&quot;"}))  # VTK writes the name into an attribute as it is
     image.GetPointData().SetScalars(values)
     writer = xml.vtkXMLImageDataWriter()
     writer.SetFileName(tmp)
