@@ -1,9 +1,9 @@
 """An experiment: how far a learned per-ball decision gets towards the per-ball oracle (`ball_oracle`).
 
     pip install scikit-learn     # the experiment's own need; skelfilter does not depend on it
-    python benchmarks/learned_ball_decision.py features --cases fandisk:stripes ... [--dir FOLDER]
+    python benchmarks/learned_ball_decision.py features --cases fandisk:stripes ... [--heights 2 3 5] [--dir FOLDER]
     python benchmarks/learned_ball_decision.py train [--dir FOLDER]
-    python benchmarks/learned_ball_decision.py evaluate --cases gear:stripes ... [--dir FOLDER]
+    python benchmarks/learned_ball_decision.py evaluate --cases gear:stripes ... [--thresholds 0.5 0.8] [--dir FOLDER]
 
 ``features`` writes, per case (a benchmark shape and a noise kind of `quality.NOISE_KINDS`, seed 1,
 160 voxels), every IE-skeleton ball of both sides of the noisy shape (foreground; the background
@@ -11,9 +11,12 @@ bounded by the grid's outer layer) with its measures: D, rho, rho+, sigma_bar, l
 its two feature points), whether the default's pruning keeps it, the signed distance of its centre to
 the default's pruned reconstruction and to the noisy shape smoothed by Gaussians of 1, 2 and 3 voxels,
 the noise estimate's height; and its labels: the clean distance at its centre (the ball is *dropped*
-by the oracle where it is 0).
+by the oracle where it is 0). A case's shape is a benchmark shape or ``procedural-SEED``
+(`shapes.procedural`: a body with rods and plates 2-8 voxels thick); ``--heights`` writes one file per
+noise height replacing the kind's h.
 
-``train`` fits gradient-boosted trees on the tuning shapes' cases found in ``--dir``: a classifier of
+``train`` fits gradient-boosted trees on every case found in ``--dir`` but the held-out shapes' and
+the ``high`` noise's (kept for evaluating on a noise never trained on): a classifier of
 dropped balls and a regressor of the clean radius (the oracle's cap) of the others. ``--weigh voxels``
 weighs each ball by the voxels it owns (`ball_oracle.ray_owners`), so that the loss counts voxels, not
 balls.
@@ -21,10 +24,14 @@ balls.
 ``evaluate`` prints, per case, the classifier's AUC on each side and the scores (`ball_oracle.scores`)
 of the outputs the model gives, built as the oracle's are: kept foreground balls (radius capped at
 the predicted clean radius) united with the background voxels no kept background ball covers, the same
-without the cap, and the owned output (`ball_oracle.owned_output`: the voxels of dropped balls flip).
+without the cap, the owned output (`ball_oracle.owned_output`: the voxels of dropped balls flip), and
+the owned output of the drop chances averaged over the skeleton (`smoothed_on_skeleton`), dropped
+above each of ``--thresholds``.
 """
 
 import argparse
+import dataclasses
+import itertools
 import os
 import pickle
 import sys
@@ -33,9 +40,9 @@ import ball_oracle
 import numpy as np
 import quality
 import shapes
-from scipy import ndimage
+from scipy import ndimage, sparse
 
-from skelfilter.core import noise_estimate, stage
+from skelfilter.core import noise_estimate, saliency, stage
 from skelfilter.core.neighbourhood import unravel
 from skelfilter.core.reconstruct import union_of_balls
 from skelfilter.evaluation import metrics
@@ -52,14 +59,23 @@ TRAINING_BALLS = 1_500_000  # drawn at random from the tuning cases
 
 def _case(text):
     shape, _, kind = text.partition(":")
-    if shape not in shapes.SHAPES or kind not in quality.NOISE_KINDS:
-        raise argparse.ArgumentTypeError(f"a case is SHAPE:KIND, got {text!r}")
+    if (shape not in shapes.SHAPES and not shape.startswith("procedural-")) or kind not in quality.NOISE_KINDS:
+        raise argparse.ArgumentTypeError(f"a case is SHAPE:KIND (SHAPE of the benchmark or procedural-SEED), got "
+                                         f"{text!r}")
     return shape, kind
 
 
-def _noise(shape, kind):
+def _noise(shape, kind, height=None):
+    """The case and its noise; ``height`` replaces the kind's h (voxels)."""
     case = quality.Case(shape, kind, 1)
-    return case, mesh_pipeline.noisy_mesh(shapes.load(shape), case.noise(RESOLUTION))[1]
+    noise = case.noise(RESOLUTION)
+    if height is not None:
+        noise = dataclasses.replace(noise, h=height)
+    return case, mesh_pipeline.noisy_mesh(shapes.load(shape), noise)[1]
+
+
+def _file(shape, kind, height=None):
+    return f"{shape}_{kind}.npz" if height is None else f"{shape}_{kind}_h{height}.npz"
 
 
 def side_measures(side, clean_side, estimate_side):
@@ -91,22 +107,23 @@ def _sides(noise):
             ("bg", bounded(noise.noisy), bounded(noise.clean), "dents"))
 
 
-def features(cases, folder):
+def features(cases, folder, heights=(None,)):
     os.makedirs(folder, exist_ok=True)
-    for shape, kind in cases:
-        _, noise = _noise(shape, kind)
+    for (shape, kind), height in itertools.product(cases, heights):
+        _, noise = _noise(shape, kind, height)
         saved = {}
         for name, side, clean_side, estimate_side in _sides(noise):
             centres, values, clean_distance = side_measures(side, clean_side, estimate_side)
             saved[f"{name}_centres"], saved[f"{name}_clean_d"] = centres, clean_distance
             saved.update({f"{name}_f_{k}": v for k, v in values.items()})
-        np.savez_compressed(os.path.join(folder, f"{shape}_{kind}.npz"), **saved)
-        print("measured", shape, kind, flush=True)
+        np.savez_compressed(os.path.join(folder, _file(shape, kind, height)), **saved)
+        print("measured", shape, kind, height or "", flush=True)
 
 
-def load(folder, shape, kind):
-    """Per side: (centres, the model's inputs, clean distances, radii)."""
-    z = np.load(os.path.join(folder, f"{shape}_{kind}.npz"))
+def load(folder, shape, kind, name=None):
+    """Per side: (centres, the model's inputs, clean distances, radii); ``name``: the file's, when
+    not the case's."""
+    z = np.load(os.path.join(folder, name or _file(shape, kind)))
     out = {}
     for side in ("fg", "bg"):
         f = {n: z[f"{side}_f_{n}"] for n in MEASURES}
@@ -118,21 +135,23 @@ def load(folder, shape, kind):
     return out
 
 
-def owners(shape, kind):
+def owners(shape, kind, height=None):
     """`ball_oracle.ray_owners` of both sides of a case, and the case's noise masks."""
-    _, noise = _noise(shape, kind)
+    _, noise = _noise(shape, kind, height)
     return {name: ball_oracle.ray_owners(side) for name, side, _, _ in _sides(noise)}, noise
 
 
 def train(folder, weigh="balls"):
     from sklearn.ensemble import HistGradientBoostingClassifier, HistGradientBoostingRegressor
-    cases = [(s, k) for s in sorted(shapes.SHAPES) if s not in quality.HELD_OUT for k in quality.NOISE_KINDS
-             if os.path.exists(os.path.join(folder, f"{s}_{k}.npz"))]
-    print("training on", ", ".join(f"{s}:{k}" for s, k in cases), flush=True)
+    names = sorted(n for n in os.listdir(folder) if n.endswith(".npz") and n.split("_")[0] not in quality.HELD_OUT
+                   and "_high" not in n)  # the taller noise is held aside as a kind never trained on
+    print("training on", ", ".join(n.removesuffix(".npz") for n in names), flush=True)
     parts, weights = [], []
-    for shape, kind in cases:
-        loaded = load(folder, shape, kind)
-        owned = owners(shape, kind)[0] if weigh == "voxels" else None
+    for name in names:
+        shape, kind, *height = name.removesuffix(".npz").split("_")
+        height = int(height[0].removeprefix("h")) if height else None
+        loaded = load(folder, shape, kind, name)
+        owned = owners(shape, kind, height)[0] if weigh == "voxels" else None
         for side in ("fg", "bg"):
             parts.append(loaded[side])
             if owned is not None:
@@ -166,7 +185,18 @@ def model_output(parts, classifier, regressor, noisy):
     return out
 
 
-def evaluate(cases, folder, weigh="balls"):
+def smoothed_on_skeleton(chance, centres, shape, rounds=3):
+    """``chance`` (one per ball) averaged with its skeleton neighbours' (26-adjacent centres),
+    ``rounds`` times: neighbouring balls of one sheet decided alike."""
+    indptr, indices = saliency.skeleton_adjacency(centres, shape)
+    adjacency = sparse.csr_matrix((np.ones(len(indices)), indices, indptr), shape=(len(centres), len(centres)))
+    degree = 1.0 + np.diff(indptr)
+    for _ in range(rounds):
+        chance = (chance + adjacency @ chance) / degree
+    return chance
+
+
+def evaluate(cases, folder, weigh="balls", thresholds=(0.5,)):
     with open(os.path.join(folder, f"model-{weigh}.pkl"), "rb") as f:
         classifier, regressor = pickle.load(f)
     for shape, kind in cases:
@@ -175,14 +205,20 @@ def evaluate(cases, folder, weigh="balls"):
         owned, noise = owners(shape, kind)
         case = quality.Case(shape, kind, 1)
         thin = metrics.thin_parts(noise.clean, quality.THIN_RADIUS)
-        dropped = {side: classifier.predict_proba(parts[side][1])[:, 1] >= 0.5 for side in ("fg", "bg")}
+        chance = {side: classifier.predict_proba(parts[side][1])[:, 1] for side in ("fg", "bg")}
+        dropped = {side: chance[side] >= 0.5 for side in ("fg", "bg")}
+        smoothed = {side: smoothed_on_skeleton(chance[side], parts[side][0], noise.noisy.shape)
+                    for side in ("fg", "bg")}
         outputs = {"model": model_output(parts, classifier, regressor, noise.noisy),
                    "model, radii uncapped": model_output(parts, classifier, None, noise.noisy),
                    "model, owned": ball_oracle.owned_output(noise.noisy, owned["fg"], owned["bg"], dropped["fg"],
-                                                            dropped["bg"])}
+                                                            dropped["bg"]),
+                   **{f"model, owned, smoothed {t:g}": ball_oracle.owned_output(
+                       noise.noisy, owned["fg"], owned["bg"], smoothed["fg"] >= t, smoothed["bg"] >= t)
+                      for t in thresholds}}
         for name, out in outputs.items():
             s = ball_oracle.scores(out, noise, thin)
-            print(f"{case.name:24s} {case.split:9s} {name:22s} AUC fg {aucs[0]:.3f} bg {aucs[1]:.3f} | noise left "
+            print(f"{case.name:24s} {case.split:9s} {name:28s} AUC fg {aucs[0]:.3f} bg {aucs[1]:.3f} | noise left "
                   f"{s['noise_left']:.3f} (bumps {s['bumps_left']:.3f}, dents {s['dents_left']:.3f}), clean lost "
                   f"{100 * s['clean_lost']:.2f} %, thin kept {s['thin_kept']:.3f}, error ratio {s['error_ratio']:.3f}, "
                   f"genus {s['genus']}", flush=True)
@@ -192,16 +228,20 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("step", choices=("features", "train", "evaluate"))
     parser.add_argument("--cases", nargs="+", type=_case, default=[])
+    parser.add_argument("--heights", nargs="+", type=int, default=[None],
+                        help="features: noise heights (voxels) replacing each kind's h, one file per height")
     parser.add_argument("--dir", default="learned-ball-decision", help="where measures and the model go")
     parser.add_argument("--weigh", choices=("balls", "voxels"), default="balls",
                         help="train: every ball alike, or each by the voxels it owns (evaluate: the model trained so)")
+    parser.add_argument("--thresholds", nargs="+", type=float, default=[0.5],
+                        help="evaluate: the smoothed drop chances above which a ball is dropped")
     args = parser.parse_args(argv)
     if args.step == "features":
-        features(args.cases, args.dir)
+        features(args.cases, args.dir, args.heights)
     elif args.step == "train":
         train(args.dir, args.weigh)
     else:
-        evaluate(args.cases, args.dir, args.weigh)
+        evaluate(args.cases, args.dir, args.weigh, args.thresholds)
     return 0
 
 

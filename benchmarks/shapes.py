@@ -294,6 +294,29 @@ def gear():
     return _to_trimesh(_union([body] + teeth) - _union(holes))
 
 
+def procedural(seed):
+    """A made-up shape with thin parts, for training a decision over many shapes: a body (a box, an
+    ellipsoid or a cylinder) with 2-6 rods (radius 2-7 voxels at 160 of the body's longest side) and
+    plates (2-8 voxels thick) through it at random directions. The same seed gives the same shape."""
+    rng = np.random.default_rng(seed)
+    extent = rng.uniform(0.25, 0.5, 3)
+    body = [manifold3d.Manifold.cube(extent, True),
+            manifold3d.Manifold.sphere(0.5, SEGMENTS).scale(tuple(extent)),
+            manifold3d.Manifold.cylinder(extent[2], extent[0] / 2, -1.0, SEGMENTS, True)][int(rng.integers(3))]
+    parts = [body]
+    for _ in range(int(rng.integers(2, 7))):
+        turn = tuple(float(a) for a in rng.uniform(0, 360, 3))
+        offset = tuple(float(v) for v in rng.uniform(-0.15, 0.15, 3))
+        if rng.random() < 0.5:
+            radius, length = rng.uniform(2, 7) / 160, rng.uniform(0.5, 1.0)
+            part = manifold3d.Manifold.cylinder(length, radius, -1.0, 32, True)
+        else:
+            thickness, side = rng.uniform(2, 8) / 160, rng.uniform(0.3, 0.6, 2)
+            part = manifold3d.Manifold.cube((side[0], side[1], thickness), True)
+        parts.append(part.rotate(turn).translate(offset))
+    return _to_trimesh(_union(parts))
+
+
 SHAPES = {s.name: s for s in (
     Shape("fandisk", _from_file(sample_path()), cad=True, genus=0, view=(1.0, 0.6, -1.2)),
     Shape("rocker-arm", _from_file(os.path.join(DATA, "rocker-arm.obj")), cad=True, genus=1,
@@ -326,9 +349,12 @@ def load(name):
     Raises
     ------
     KeyError
-        For a name neither in ``SHAPES`` nor in ``FINE_PASS_CAD``.
+        For a name neither in ``SHAPES`` nor in ``FINE_PASS_CAD`` nor ``procedural-SEED``.
     """
-    mesh = (SHAPES[name].build if name in SHAPES else FINE_PASS_CAD[name])()
+    if name.startswith("procedural-"):
+        mesh = procedural(int(name.removeprefix("procedural-")))
+    else:
+        mesh = (SHAPES[name].build if name in SHAPES else FINE_PASS_CAD[name])()
     lo, hi = mesh.bounds
     mesh.apply_translation(-(lo + hi) / 2)
     mesh.apply_scale(1.0 / (hi - lo).max())

@@ -125,3 +125,18 @@ def test_the_owned_oracle_removes_a_bump_and_fills_a_dent_without_gaps():
     assert not out[15:17, 15:17, 33:35].any() and out[23:25, 23:25, 29:32].all()
     # no coverage gaps: what stays wrong is one voxel at the rims (of the 96 the noise changed)
     assert (out ^ clean).sum() <= (noisy ^ clean).sum() / 6
+
+
+def test_procedural_shapes_are_repeatable_solids_with_thin_parts():
+    """The made-up training shapes: one seed, one shape; watertight; rods and plates thinner than
+    the benchmark's thin-part ball (8 voxels across at 160) make a good share of their voxels."""
+    import shapes
+
+    from skelfilter.evaluation.metrics import thin_parts
+    from skelfilter.mesh.voxelize import voxelize
+
+    first, again, other = shapes.procedural(3), shapes.procedural(3), shapes.procedural(4)
+    assert np.array_equal(first.vertices, again.vertices) and not np.array_equal(first.vertices, other.vertices)
+    assert first.is_watertight and first.is_volume
+    grid = voxelize(shapes.load("procedural-3"), resolution=160)[0]
+    assert 0.05 < thin_parts(grid, 4.0).sum() / grid.sum() < 0.9
