@@ -21,12 +21,14 @@ dropped balls and a regressor of the clean radius (the oracle's cap) of the othe
 weighs each ball by the voxels it owns (`ball_oracle.ray_owners`), so that the loss counts voxels, not
 balls.
 
+``--context`` adds to a ball's inputs its skeleton neighbourhood's (`context`: mean and largest radius,
+mean heights, 3 and 8 steps along the skeleton), for train and evaluate alike.
+
 ``evaluate`` prints, per case, the classifier's AUC on each side and the scores (`ball_oracle.scores`)
-of the outputs the model gives, built as the oracle's are: kept foreground balls (radius capped at
-the predicted clean radius) united with the background voxels no kept background ball covers, the same
-without the cap, the owned output (`ball_oracle.owned_output`: the voxels of dropped balls flip), and
-the owned output of the drop chances averaged over the skeleton (`smoothed_on_skeleton`), dropped
-above each of ``--thresholds``.
+of the outputs the model gives: the owned output (`ball_oracle.owned_output`: the voxels of dropped
+balls flip), the same with the drop chances averaged over the skeleton (`smoothed_on_skeleton`),
+dropped above each of ``--thresholds``, and that output `rescued`: the noisy shape's voxels that a kept
+ball covers, its radius capped at the predicted clean radius, put back on both sides.
 """
 
 import argparse
@@ -111,7 +113,7 @@ def features(cases, folder, heights=(None,)):
     os.makedirs(folder, exist_ok=True)
     for (shape, kind), height in itertools.product(cases, heights):
         _, noise = _noise(shape, kind, height)
-        saved = {}
+        saved = {"grid_shape": np.array(noise.noisy.shape)}
         for name, side, clean_side, estimate_side in _sides(noise):
             centres, values, clean_distance = side_measures(side, clean_side, estimate_side)
             saved[f"{name}_centres"], saved[f"{name}_clean_d"] = centres, clean_distance
@@ -120,16 +122,52 @@ def features(cases, folder, heights=(None,)):
         print("measured", shape, kind, height or "", flush=True)
 
 
-def load(folder, shape, kind, name=None):
+def _adjacency(centres, grid_shape):
+    indptr, indices = saliency.skeleton_adjacency(centres, tuple(grid_shape))
+    n = len(centres)
+    return sparse.csr_matrix((np.ones(len(indices)), indices, indptr), shape=(n, n)), 1.0 + np.diff(indptr)
+
+
+def _neighbour_max(values, adjacency, rounds):
+    """The largest of ``values`` within ``rounds`` skeleton steps of each ball."""
+    indptr, indices = adjacency.indptr, adjacency.indices
+    for _ in range(rounds):
+        spread = values.copy()
+        rows = np.flatnonzero(np.diff(indptr))
+        spread[rows] = np.maximum(values[rows], np.maximum.reduceat(values[indices], indptr[rows]))
+        values = spread
+    return values
+
+
+def context(f, centres, grid_shape):
+    """Measures of a ball's skeleton neighbourhood (26-adjacent centres, 3 and 8 steps): the mean and
+    largest radius, the mean height above the smoothed shape and above the core: whether a small ball
+    lies on a rod that goes on beyond the blob it is in."""
+    adjacency, degree = _adjacency(centres, grid_shape)
+    columns = []
+    for name in ("r", "height2", "height_core"):
+        mean = f[name]
+        for rounds in range(1, 9):
+            mean = (mean + adjacency @ mean) / degree
+            if rounds in (3, 8):
+                columns.append(mean)
+    columns += [_neighbour_max(f["r"], adjacency, 3), _neighbour_max(f["r"], adjacency, 8)]
+    return columns
+
+
+def load(folder, shape, kind, name=None, with_context=False):
     """Per side: (centres, the model's inputs, clean distances, radii); ``name``: the file's, when
-    not the case's."""
+    not the case's; ``with_context``: the inputs include `context`."""
     z = np.load(os.path.join(folder, name or _file(shape, kind)))
     out = {}
     for side in ("fg", "bg"):
         f = {n: z[f"{side}_f_{n}"] for n in MEASURES}
         r = f["r"]
-        derived = [r - f["sd_core"], r - f["sd_smooth2"], r - f["sd_smooth1"], r - f["sd_smooth3"], f["rho"] / r,
+        f["height2"], f["height_core"] = r - f["sd_smooth2"], r - f["sd_core"]
+        derived = [f["height_core"], f["height2"], r - f["sd_smooth1"], r - f["sd_smooth3"], f["rho"] / r,
                    r / np.maximum(f["noise_height"], 1), np.full(len(r), float(side == "bg"))]
+        if with_context:
+            derived += context(f, z[f"{side}_centres"], z["grid_shape"])
         inputs = np.stack([f[n] for n in MEASURES] + derived, 1).astype(np.float32)
         out[side] = (z[f"{side}_centres"], inputs, z[f"{side}_clean_d"], r)
     return out
@@ -141,7 +179,11 @@ def owners(shape, kind, height=None):
     return {name: ball_oracle.ray_owners(side) for name, side, _, _ in _sides(noise)}, noise
 
 
-def train(folder, weigh="balls"):
+def _model_file(folder, weigh, with_context):
+    return os.path.join(folder, f"model-{weigh}{'-context' if with_context else ''}.pkl")
+
+
+def train(folder, weigh="balls", with_context=False):
     from sklearn.ensemble import HistGradientBoostingClassifier, HistGradientBoostingRegressor
     names = sorted(n for n in os.listdir(folder) if n.endswith(".npz") and n.split("_")[0] not in quality.HELD_OUT
                    and "_high" not in n)  # the taller noise is held aside as a kind never trained on
@@ -150,7 +192,7 @@ def train(folder, weigh="balls"):
     for name in names:
         shape, kind, *height = name.removesuffix(".npz").split("_")
         height = int(height[0].removeprefix("h")) if height else None
-        loaded = load(folder, shape, kind, name)
+        loaded = load(folder, shape, kind, name, with_context)
         owned = owners(shape, kind, height)[0] if weigh == "voxels" else None
         for side in ("fg", "bg"):
             parts.append(loaded[side])
@@ -167,20 +209,19 @@ def train(folder, weigh="balls"):
     classifier = HistGradientBoostingClassifier(**trees).fit(inputs[pick], dropped[pick], sample_weight=weight[pick])
     kept = pick[~dropped[pick]]
     regressor = HistGradientBoostingRegressor(**trees).fit(inputs[kept], cap[kept], sample_weight=weight[kept])
-    with open(os.path.join(folder, f"model-{weigh}.pkl"), "wb") as f:
+    with open(_model_file(folder, weigh, with_context), "wb") as f:
         pickle.dump((classifier, regressor), f)
 
 
-def model_output(parts, classifier, regressor, noisy):
-    """The oracle's construction with the model's decisions (``regressor`` None: radii uncapped)."""
-    covered = {}
-    for side in ("fg", "bg"):
-        centres, inputs, _, r = parts[side]
-        drop = classifier.predict_proba(inputs)[:, 1] >= 0.5
-        radii = r if regressor is None else np.minimum(r, np.maximum(regressor.predict(inputs), 0))
-        keep = ~drop & (radii > 0)
-        covered[side] = union_of_balls(noisy.shape, centres[keep], radii[keep])[0]
-    out = covered["fg"] | (~noisy & ~covered["bg"])
+def rescued(out, parts, dropped, radii, noisy):
+    """``out`` with the noisy shape's voxels that a kept ball covers (radius ``radii``, the model's
+    clean radius) put back, on both sides: a rod's core balls keep the rod where a dropped noise ball
+    owns its voxels."""
+    out = out.copy()
+    for side, value in (("fg", True), ("bg", False)):
+        centres, keep = parts[side][0], ~dropped[side] & (radii[side] > 0)
+        covered = union_of_balls(noisy.shape, centres[keep], radii[side][keep])[0]
+        out[covered & (noisy == value)] = value
     out[[0, -1], :, :] = out[:, [0, -1], :] = out[:, :, [0, -1]] = False
     return out
 
@@ -188,19 +229,17 @@ def model_output(parts, classifier, regressor, noisy):
 def smoothed_on_skeleton(chance, centres, shape, rounds=3):
     """``chance`` (one per ball) averaged with its skeleton neighbours' (26-adjacent centres),
     ``rounds`` times: neighbouring balls of one sheet decided alike."""
-    indptr, indices = saliency.skeleton_adjacency(centres, shape)
-    adjacency = sparse.csr_matrix((np.ones(len(indices)), indices, indptr), shape=(len(centres), len(centres)))
-    degree = 1.0 + np.diff(indptr)
+    adjacency, degree = _adjacency(centres, shape)
     for _ in range(rounds):
         chance = (chance + adjacency @ chance) / degree
     return chance
 
 
-def evaluate(cases, folder, weigh="balls", thresholds=(0.5,)):
-    with open(os.path.join(folder, f"model-{weigh}.pkl"), "rb") as f:
+def evaluate(cases, folder, weigh="balls", thresholds=(0.5,), with_context=False):
+    with open(_model_file(folder, weigh, with_context), "rb") as f:
         classifier, regressor = pickle.load(f)
     for shape, kind in cases:
-        parts = load(folder, shape, kind)
+        parts = load(folder, shape, kind, with_context=with_context)
         aucs = [ball_oracle.auc(classifier.predict_proba(parts[s][1])[:, 1], parts[s][2] <= 0) for s in ("fg", "bg")]
         owned, noise = owners(shape, kind)
         case = quality.Case(shape, kind, 1)
@@ -209,13 +248,15 @@ def evaluate(cases, folder, weigh="balls", thresholds=(0.5,)):
         dropped = {side: chance[side] >= 0.5 for side in ("fg", "bg")}
         smoothed = {side: smoothed_on_skeleton(chance[side], parts[side][0], noise.noisy.shape)
                     for side in ("fg", "bg")}
-        outputs = {"model": model_output(parts, classifier, regressor, noise.noisy),
-                   "model, radii uncapped": model_output(parts, classifier, None, noise.noisy),
-                   "model, owned": ball_oracle.owned_output(noise.noisy, owned["fg"], owned["bg"], dropped["fg"],
-                                                            dropped["bg"]),
-                   **{f"model, owned, smoothed {t:g}": ball_oracle.owned_output(
-                       noise.noisy, owned["fg"], owned["bg"], smoothed["fg"] >= t, smoothed["bg"] >= t)
-                      for t in thresholds}}
+        kept_radii = {side: np.minimum(parts[side][3], np.maximum(regressor.predict(parts[side][1]), 0))
+                      for side in ("fg", "bg")}
+        outputs = {"model, owned": ball_oracle.owned_output(noise.noisy, owned["fg"], owned["bg"], dropped["fg"],
+                                                            dropped["bg"])}
+        for t in thresholds:
+            drop = {side: smoothed[side] >= t for side in ("fg", "bg")}
+            out = ball_oracle.owned_output(noise.noisy, owned["fg"], owned["bg"], drop["fg"], drop["bg"])
+            outputs[f"model, owned, smoothed {t:g}"] = out
+            outputs[f"model, owned, smoothed {t:g}, rescued"] = rescued(out, parts, drop, kept_radii, noise.noisy)
         for name, out in outputs.items():
             s = ball_oracle.scores(out, noise, thin)
             print(f"{case.name:24s} {case.split:9s} {name:28s} AUC fg {aucs[0]:.3f} bg {aucs[1]:.3f} | noise left "
@@ -235,13 +276,15 @@ def main(argv=None):
                         help="train: every ball alike, or each by the voxels it owns (evaluate: the model trained so)")
     parser.add_argument("--thresholds", nargs="+", type=float, default=[0.5],
                         help="evaluate: the smoothed drop chances above which a ball is dropped")
+    parser.add_argument("--context", action="store_true",
+                        help="train, evaluate: the inputs include each ball's skeleton neighbourhood (`context`)")
     args = parser.parse_args(argv)
     if args.step == "features":
         features(args.cases, args.dir, args.heights)
     elif args.step == "train":
-        train(args.dir, args.weigh)
+        train(args.dir, args.weigh, args.context)
     else:
-        evaluate(args.cases, args.dir, args.weigh, args.thresholds)
+        evaluate(args.cases, args.dir, args.weigh, args.thresholds, args.context)
     return 0
 
 

@@ -12,8 +12,8 @@ rivals (`RIVALS`) get it decimated to at most `MAX_FACES` faces as ``skelfilter 
 niced child processes and are cached on disk (``--cache``, keyed by case, rival and a hash of the
 noisy mesh; ``--refresh`` recomputes). The noisy meshes and their voxel masks are cached too.
 
-Every result is scored on the case's noise grid (in its voxels, see `score`); ``--out`` gets
-``results.json`` (every number), ``table.md`` (per split: a table of the cases, a summary per method
+Every result is scored on the case's noise grid (in its voxels, see `score`); ``--oracle`` adds the
+per-ball oracle's output (`run_oracle`), the ceiling of a skeleton decision. ``--out`` gets ``results.json`` (every number), ``table.md`` (per split: a table of the cases, a summary per method
 and noise kind, the acceptance targets of ``--check``; see ``quality_tables.py``) and ``sheet.png``
 (pictures of representative cases).
 """
@@ -44,6 +44,7 @@ from skelfilter.evaluation.comparison.config import Method, slug
 from skelfilter.evaluation.comparison.methods import run_method
 from skelfilter.evaluation.comparison.run import Reporter, decimate, versions
 from skelfilter.io import mesh_files
+from skelfilter.mesh import marching_cubes
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.mesh.voxelize import Grid, grid_for_bounds, voxelize_on_grid
 from skelfilter.params import DenoiseParams, NoiseParams
@@ -57,6 +58,7 @@ NOISE_KINDS = {
     "sparse": {"p": 0.003, "r": 2.1, "h": 3, "l": 6},
 }
 SEEDS = (1, 2)
+ORACLE = "oracle"  # the method label of `run_oracle`
 HELD_OUT = ("spot", "l-bracket", "twelve", "stool", "gear")  # reported apart: never look at them while tuning
 QUICK_SHAPES = ("cube", "fandisk", "block", "l-bracket")
 DEFAULT_VARIANTS = ("default", "thesis:preset=thesis-tuned")
@@ -311,6 +313,20 @@ def run_variant(case, label, params, setup, save_path):
     return {"seconds": seconds, "error": None, **score(mesh, prep)}
 
 
+def run_oracle(case, setup, save_path):
+    """The per-ball oracle (`ball_oracle.owned_oracle`: each voxel of the noisy shape flips where the
+    skeleton ball that owns it is centred beyond the clean shape, on either side) as a marching-cubes
+    mesh, scored: the ceiling of a per-ball skeleton decision, written to ``save_path`` unless None."""
+    import ball_oracle  # it imports this module
+    prep = load_case(case, setup)
+    start = time.perf_counter()
+    mesh = marching_cubes.mask_to_mesh(ball_oracle.owned_oracle(prep.noise.noisy, prep.noise.clean), prep.grid)
+    seconds = time.perf_counter() - start
+    if save_path is not None:
+        mesh_files.save_mesh(mesh, save_path)
+    return {"seconds": seconds, "error": None, **score(mesh, prep)}
+
+
 def cached_rival(case, rival, facts, setup):
     """A rival's scored entry from the cache, or None when it has to run (or be scored) first."""
     if setup.refresh:
@@ -503,6 +519,8 @@ def parse_args(argv):
     p.add_argument("--split", choices=("tuning", "heldout", "all"), default="all",
                    help=f"cases of the tuning shapes, of the held-out ones ({','.join(HELD_OUT)}), or all")
     p.add_argument("--jobs", type=int, default=2, help="child processes at once")
+    p.add_argument("--oracle", action="store_true",
+                   help="add the per-ball oracle's output (the clean shape decides each skeleton ball; a ceiling)")
     p.add_argument("--no-pictures", action="store_true", help="skip sheet.png")
     p.add_argument("--quick", action="store_true", help=f"one seed, shapes {','.join(QUICK_SHAPES)} (smoke run)")
     args = p.parse_args(argv)
@@ -537,7 +555,7 @@ def sheet_cases(cases):
 def write_sheet(results, cases, setup, out_dir, say):
     """Render the picture sheet ``sheet.png``: rows `sheet_cases`, columns noisy, the variants, the two
     rivals of lowest median Chamfer, clean (cells under ``out_dir/sheet/``)."""
-    variants = list(results["settings"]["variants"])
+    variants = list(results["settings"]["variants"]) + ([ORACLE] if results["settings"].get("oracle") else [])
     columns = ["noisy"] + variants + quality_tables.best_rivals(results, 2) + ["clean"]
     by_name = {c["name"]: c for c in results["cases"]}
     folder = os.path.join(out_dir, "sheet")
@@ -624,6 +642,12 @@ def main(argv=None):
     done = run_tasks(run_variant, tasks, args.jobs, say, lambda t, r: f"{t[0].name}: {t[1]} {_outcome(r)}")
     variants = {(t[0], t[1]): entry for t, entry in zip(tasks, done)}
     timings["variants_s"] = time.perf_counter() - mark
+    if args.oracle:
+        mark = time.perf_counter()
+        tasks = [(c, setup, _variant_mesh_path(args.out, c, ORACLE) if c in pictured else None) for c in cases]
+        done = run_tasks(run_oracle, tasks, args.jobs, say, lambda t, r: f"{t[0].name}: oracle {_outcome(r)}")
+        variants.update({(t[0], ORACLE): entry for t, entry in zip(tasks, done)})
+        timings["oracle_s"] = time.perf_counter() - mark
 
     names = list(dict.fromkeys(c.shape for c in cases))
     passes = {}
@@ -643,12 +667,14 @@ def main(argv=None):
                      "resolution": args.resolution, "max_faces": MAX_FACES, "noise_kinds": NOISE_KINDS,
                      "held_out": HELD_OUT, "check": args.check,
                      "variants": {label: asdict(p) for label, p in args.variants.items()},
+                     "oracle": args.oracle,
                      "rivals": list(args.rivals), "versions": versions(), "uncommitted": uncommitted()},
         "shapes": _shape_facts(names, args.resolution),
         "cases": [{"name": c.name, "shape": c.shape, "kind": c.kind, "seed": c.seed, "split": c.split,
                    "facts": {k: v for k, v in facts[c].items() if k != "noisy"},
                    "methods": {"noisy": facts[c]["noisy"],
                                **{label: variants[c, label] for label in args.variants},
+                               **({ORACLE: variants[c, ORACLE]} if args.oracle else {}),
                                **{r: rivals[c, r] for r in args.rivals if rivals[c, r] is not None}}}
                   for c in cases],
         "clean_pass": passes,

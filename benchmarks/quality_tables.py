@@ -30,9 +30,10 @@ CELL_LEGEND = ("noise left · Chamfer (vox) · normal error (°) · sharp-edge e
 
 
 def methods(results):
-    """Column order: the noisy reference, skelfilter's variants, the rivals."""
+    """Column order: the noisy reference, skelfilter's variants, the per-ball oracle (``--oracle``),
+    the rivals."""
     s = results["settings"]
-    return ["noisy"] + list(s["variants"]) + list(s["rivals"])
+    return ["noisy"] + list(s["variants"]) + (["oracle"] if s.get("oracle") else []) + list(s["rivals"])
 
 
 def _entry(case, method):
