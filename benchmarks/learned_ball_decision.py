@@ -43,6 +43,7 @@ import numpy as np
 import quality
 import shapes
 from scipy import ndimage, sparse
+from scipy.sparse import csgraph
 
 from skelfilter.core import noise_estimate, saliency, stage
 from skelfilter.core.neighbourhood import unravel
@@ -56,6 +57,8 @@ RESOLUTION = 160
 SMOOTHING = (1.0, 2.0, 3.0)  # voxels: the Gaussians whose 1/2 level gives reference surfaces
 MEASURES = ("r", "rho", "rho_plus", "sigma_bar", "lambda", "kept", "sd_core", "sd_smooth1", "sd_smooth2",
             "sd_smooth3", "noise_height", "noise_found")
+THICK_RADII = (3.0, 5.0, 8.0)  # voxels
+FAR_STEPS = 60  # skeleton steps: farther from a thick ball counts as this far
 TRAINING_BALLS = 1_500_000  # drawn at random from the tuning cases
 
 
@@ -141,8 +144,9 @@ def _neighbour_max(values, adjacency, rounds):
 
 def context(f, centres, grid_shape):
     """Measures of a ball's skeleton neighbourhood (26-adjacent centres, 3 and 8 steps): the mean and
-    largest radius, the mean height above the smoothed shape and above the core: whether a small ball
-    lies on a rod that goes on beyond the blob it is in."""
+    largest radius, the mean height above the smoothed shape and above the core, and the steps along
+    the skeleton to the nearest ball of radius at least each of `THICK_RADII`: whether a small ball
+    lies on a rod that goes on beyond the blob it is in, far from the body it hangs on."""
     adjacency, degree = _adjacency(centres, grid_shape)
     columns = []
     for name in ("r", "height2", "height_core"):
@@ -152,6 +156,11 @@ def context(f, centres, grid_shape):
             if rounds in (3, 8):
                 columns.append(mean)
     columns += [_neighbour_max(f["r"], adjacency, 3), _neighbour_max(f["r"], adjacency, 8)]
+    for radius in THICK_RADII:
+        thick = np.flatnonzero(f["r"] >= radius)
+        steps = (csgraph.dijkstra(adjacency, unweighted=True, indices=thick, min_only=True, limit=FAR_STEPS)
+                 if len(thick) else np.full(len(centres), np.inf))
+        columns.append(np.minimum(steps, FAR_STEPS))
     return columns
 
 
