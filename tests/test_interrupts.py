@@ -170,3 +170,15 @@ def test_a_signal_held_in_a_long_step_acts_at_its_next_checkpoint():
             "signal.SIG_BLOCK, []))\n")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert (proc.returncode, proc.stdout) == (0, "['sent'] terminated True\n"), proc.stderr
+
+
+def test_nothing_follows_the_error_line_while_the_interpreter_shuts_down(tmp_path):
+    # as a compiled library's finalizer of an object an interrupt left half made prints at exit
+    late = ("import atexit, sys\n"
+            "atexit.register(lambda: print('Exception ignored in: finalizer', file=sys.stderr))\n"
+            "from skelfilter.cli import main\n"
+            f"sys.exit(main(['denoise', {str(tmp_path / 'missing.ply')!r}, {str(tmp_path / 'out.ply')!r}]))\n")
+    run = subprocess.run([sys.executable, "-c", late], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 2
+    lines = run.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("skelfilter: error: ") and "missing.ply" in lines[0], run.stderr
