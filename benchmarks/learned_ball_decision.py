@@ -22,7 +22,8 @@ weighs each ball by the voxels it owns (`ball_oracle.ray_owners`), so that the l
 balls.
 
 ``--context`` adds to a ball's inputs its skeleton neighbourhood's (`context`: mean and largest radius,
-mean heights, 3 and 8 steps along the skeleton), for train and evaluate alike.
+mean heights, 3 and 8 steps along the skeleton; the steps to the nearest thick ball), for train and
+evaluate alike.
 
 ``evaluate`` prints, per case, the classifier's AUC on each side and the scores (`ball_oracle.scores`)
 of the outputs the model gives: the owned output (`ball_oracle.owned_output`: the voxels of dropped
