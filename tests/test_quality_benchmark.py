@@ -93,3 +93,16 @@ def test_quality_benchmark_smoke(tmp_path):
                           "--variant", "default:noise_height=7", "--rivals", "taubin", "--jobs", "1", "--cached-rivals",
                           "--no-pictures", "--out", str(tmp_path / "again"), "--cache", str(tmp_path / "cache")])
     assert again["cases"][0]["methods"]["taubin"] == saved["cases"][0]["methods"]["taubin"]
+
+
+def test_the_oracle_row_removes_the_noise_it_labels(tmp_path):
+    out = tmp_path / "out"
+    results = quality.main(["--resolution", "64", "--shapes", "cube", "--kinds", "bumps-dents", "--seeds", "1",
+                            "--variant", "default", "--rivals", "none", "--oracle", "--no-pictures", "--jobs", "1",
+                            "--out", str(out), "--cache", str(tmp_path / "cache")])
+    methods = results["cases"][0]["methods"]
+    oracle, noisy = methods["oracle"], methods["noisy"]
+    assert oracle["error"] is None and results["settings"]["oracle"]
+    assert oracle["bumps_left"] < 0.1 and oracle["dents_left"] < 0.2 and oracle["clean_lost"] < 0.01
+    assert oracle["error_ratio"] < 0.3 and oracle["chamfer"] < noisy["chamfer"]
+    assert "| oracle |" in (out / "table.md").read_text()
