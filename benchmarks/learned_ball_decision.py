@@ -28,8 +28,9 @@ evaluate alike.
 ``evaluate`` prints, per case, the classifier's AUC on each side and the scores (`ball_oracle.scores`)
 of the outputs the model gives: the owned output (`ball_oracle.owned_output`: the voxels of dropped
 balls flip), the same with the drop chances averaged over the skeleton (`smoothed_on_skeleton`),
-dropped above each of ``--thresholds``, and that output `rescued`: the noisy shape's voxels that a kept
-ball covers, its radius capped at the predicted clean radius, put back on both sides.
+dropped above each of ``--thresholds``, that output `rescued`: the noisy shape's voxels that a kept
+ball covers, its radius capped at the predicted clean radius, put back on both sides; and that output
+seam smoothed (`ball_oracle.seam_smoothed`).
 """
 
 import argparse
@@ -267,6 +268,7 @@ def evaluate(cases, folder, weigh="balls", thresholds=(0.5,), with_context=False
             out = ball_oracle.owned_output(noise.noisy, owned["fg"], owned["bg"], drop["fg"], drop["bg"])
             outputs[f"model, owned, smoothed {t:g}"] = out
             outputs[f"model, owned, smoothed {t:g}, rescued"] = rescued(out, parts, drop, kept_radii, noise.noisy)
+            outputs[f"model, owned, smoothed {t:g}, seam"] = ball_oracle.seam_smoothed(noise.noisy, out)
         for name, out in outputs.items():
             s = ball_oracle.scores(out, noise, thin)
             print(f"{case.name:24s} {case.split:9s} {name:28s} AUC fg {aucs[0]:.3f} bg {aucs[1]:.3f} | noise left "

@@ -13,7 +13,8 @@ niced child processes and are cached on disk (``--cache``, keyed by case, rival 
 noisy mesh; ``--refresh`` recomputes). The noisy meshes and their voxel masks are cached too.
 
 Every result is scored on the case's noise grid (in its voxels, see `score`); ``--oracle`` adds the
-per-ball oracle's output (`run_oracle`), the ceiling of a skeleton decision. ``--out`` gets ``results.json`` (every number), ``table.md`` (per split: a table of the cases, a summary per method
+per-ball oracle's output (`run_oracle`), the ceiling of a skeleton decision. ``--out`` gets
+``results.json`` (every number), ``table.md`` (per split: a table of the cases, a summary per method
 and noise kind, the acceptance targets of ``--check``; see ``quality_tables.py``) and ``sheet.png``
 (pictures of representative cases).
 """
@@ -315,12 +316,15 @@ def run_variant(case, label, params, setup, save_path):
 
 def run_oracle(case, setup, save_path):
     """The per-ball oracle (`ball_oracle.owned_oracle`: each voxel of the noisy shape flips where the
-    skeleton ball that owns it is centred beyond the clean shape, on either side) as a marching-cubes
-    mesh, scored: the ceiling of a per-ball skeleton decision, written to ``save_path`` unless None."""
+    skeleton ball that owns it is centred beyond the clean shape, on either side; then
+    `ball_oracle.seam_smoothed`) as a marching-cubes mesh, scored: the ceiling of a per-ball skeleton
+    decision, written to ``save_path`` unless None."""
     import ball_oracle  # it imports this module
     prep = load_case(case, setup)
     start = time.perf_counter()
-    mesh = marching_cubes.mask_to_mesh(ball_oracle.owned_oracle(prep.noise.noisy, prep.noise.clean), prep.grid)
+    noisy = prep.noise.noisy
+    owned = ball_oracle.seam_smoothed(noisy, ball_oracle.owned_oracle(noisy, prep.noise.clean))
+    mesh = marching_cubes.mask_to_mesh(owned, prep.grid)
     seconds = time.perf_counter() - start
     if save_path is not None:
         mesh_files.save_mesh(mesh, save_path)

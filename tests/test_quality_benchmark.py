@@ -95,7 +95,7 @@ def test_quality_benchmark_smoke(tmp_path):
     assert again["cases"][0]["methods"]["taubin"] == saved["cases"][0]["methods"]["taubin"]
 
 
-def test_the_oracle_row_removes_the_noise_it_labels(tmp_path):
+def test_the_oracle_row_removes_the_noise_it_labels_and_has_the_clean_genus(tmp_path):
     out = tmp_path / "out"
     results = quality.main(["--resolution", "64", "--shapes", "cube", "--kinds", "bumps-dents", "--seeds", "1",
                             "--variant", "default", "--rivals", "none", "--oracle", "--no-pictures", "--jobs", "1",
@@ -103,6 +103,9 @@ def test_the_oracle_row_removes_the_noise_it_labels(tmp_path):
     methods = results["cases"][0]["methods"]
     oracle, noisy = methods["oracle"], methods["noisy"]
     assert oracle["error"] is None and results["settings"]["oracle"]
-    assert oracle["bumps_left"] < 0.1 and oracle["dents_left"] < 0.2 and oracle["clean_lost"] < 0.01
-    assert oracle["error_ratio"] < 0.3 and oracle["chamfer"] < noisy["chamfer"]
+    # measured: 0.7 % of the bumps and 1.0 % of the dents left, error 0.028, Chamfer 0.16 against 1.73
+    assert oracle["bumps_left"] < 0.05 and oracle["dents_left"] < 0.05 and oracle["clean_lost"] < 0.01
+    assert oracle["error_ratio"] < 0.1 and oracle["chamfer"] < 0.2 * noisy["chamfer"]
+    # the seam smoothing takes the threads that made handles: the clean cube's genus, 0 (the input's 589)
+    assert oracle["genus"] == 0 < noisy["genus"]
     assert "| oracle |" in (out / "table.md").read_text()
