@@ -23,14 +23,15 @@ balls.
 
 ``--context`` adds to a ball's inputs its skeleton neighbourhood's (`context`: mean and largest radius,
 mean heights, 3 and 8 steps along the skeleton; the steps to the nearest thick ball), for train and
-evaluate alike.
+evaluate alike; ``--context course`` adds how the skeleton runs there too (`course`: whether it
+follows a line or a sheet, and how far the ball lies off them).
 
 ``evaluate`` prints, per case, the classifier's AUC on each side and the scores (`ball_oracle.scores`)
 of the outputs the model gives: the owned output (`ball_oracle.owned_output`: the voxels of dropped
 balls flip), the same with the drop chances averaged over the skeleton (`smoothed_on_skeleton`),
 dropped above each of ``--thresholds``, that output `rescued`: the noisy shape's voxels that a kept
-ball covers, its radius capped at the predicted clean radius, put back on both sides; and that output
-seam smoothed (`ball_oracle.seam_smoothed`).
+ball covers, its radius capped at the predicted clean radius, put back on both sides; and both seam
+smoothed (`ball_oracle.seam_smoothed`).
 """
 
 import argparse
@@ -166,9 +167,38 @@ def context(f, centres, grid_shape):
     return columns
 
 
-def load(folder, shape, kind, name=None, with_context=False):
+def course(centres, grid_shape, rounds=(8, 16)):
+    """How the skeleton runs around each ball, over ``rounds`` steps (the centres' positions averaged
+    with their skeleton neighbours', as the mean of `context`): the covariance of the positions gives
+    linearity and planarity ((l1 - l2) / l1, (l2 - l3) / l1 of its eigenvalues), the spread sqrt(l1),
+    and the ball's distance off the line (the principal axis through the mean) and off the plane. A
+    leg's ball lies on the line its neighbourhood follows; a blob's on that leg lies off it once the
+    neighbourhood reaches beyond the blob (over 8 steps a blob's tip lies on its own branch's line)."""
+    adjacency, degree = _adjacency(centres, grid_shape)
+    xyz = unravel(centres, tuple(grid_shape)).astype(np.float64)
+    mean, second = xyz, (xyz[:, :, None] * xyz[:, None, :]).reshape(-1, 9)
+    columns = []
+    for step in range(1, max(rounds) + 1):
+        mean = (mean + adjacency @ mean) / degree[:, None]
+        second = (second + adjacency @ second) / degree[:, None]
+        if step not in rounds:
+            continue
+        covariance = second.reshape(-1, 3, 3) - mean[:, :, None] * mean[:, None, :]
+        values, vectors = np.linalg.eigh(covariance)
+        l3, l2, l1 = np.maximum(values, 0).T
+        scale = np.maximum(l1, 1e-9)
+        offset = xyz - mean
+        along = np.einsum("ij,ij->i", offset, vectors[:, :, 2])
+        off_line = np.sqrt(np.maximum((offset ** 2).sum(1) - along ** 2, 0))
+        off_plane = np.abs(np.einsum("ij,ij->i", offset, vectors[:, :, 0]))
+        columns += [(l1 - l2) / scale, (l2 - l3) / scale, np.sqrt(l1), off_line, off_plane]
+    return columns
+
+
+def load(folder, shape, kind, name=None, with_context=None):
     """Per side: (centres, the model's inputs, clean distances, radii); ``name``: the file's, when
-    not the case's; ``with_context``: the inputs include `context`."""
+    not the case's; ``with_context``: the inputs include `context` (and `course`, where it is
+    ``"course"``)."""
     z = np.load(os.path.join(folder, name or _file(shape, kind)))
     out = {}
     for side in ("fg", "bg"):
@@ -179,6 +209,8 @@ def load(folder, shape, kind, name=None, with_context=False):
                    r / np.maximum(f["noise_height"], 1), np.full(len(r), float(side == "bg"))]
         if with_context:
             derived += context(f, z[f"{side}_centres"], z["grid_shape"])
+        if with_context == "course":
+            derived += course(z[f"{side}_centres"], z["grid_shape"])
         inputs = np.stack([f[n] for n in MEASURES] + derived, 1).astype(np.float32)
         out[side] = (z[f"{side}_centres"], inputs, z[f"{side}_clean_d"], r)
     return out
@@ -191,10 +223,11 @@ def owners(shape, kind, height=None):
 
 
 def _model_file(folder, weigh, with_context):
-    return os.path.join(folder, f"model-{weigh}{'-context' if with_context else ''}.pkl")
+    suffix = {None: "", "neighbourhood": "-context", "course": "-context-course"}[with_context]
+    return os.path.join(folder, f"model-{weigh}{suffix}.pkl")
 
 
-def train(folder, weigh="balls", with_context=False):
+def train(folder, weigh="balls", with_context=None):
     from sklearn.ensemble import HistGradientBoostingClassifier, HistGradientBoostingRegressor
     names = sorted(n for n in os.listdir(folder) if n.endswith(".npz") and n.split("_")[0] not in quality.HELD_OUT
                    and "_high" not in n)  # the taller noise is held aside as a kind never trained on
@@ -246,7 +279,7 @@ def smoothed_on_skeleton(chance, centres, shape, rounds=3):
     return chance
 
 
-def evaluate(cases, folder, weigh="balls", thresholds=(0.5,), with_context=False):
+def evaluate(cases, folder, weigh="balls", thresholds=(0.5,), with_context=None):
     with open(_model_file(folder, weigh, with_context), "rb") as f:
         classifier, regressor = pickle.load(f)
     for shape, kind in cases:
@@ -267,8 +300,10 @@ def evaluate(cases, folder, weigh="balls", thresholds=(0.5,), with_context=False
             drop = {side: smoothed[side] >= t for side in ("fg", "bg")}
             out = ball_oracle.owned_output(noise.noisy, owned["fg"], owned["bg"], drop["fg"], drop["bg"])
             outputs[f"model, owned, smoothed {t:g}"] = out
-            outputs[f"model, owned, smoothed {t:g}, rescued"] = rescued(out, parts, drop, kept_radii, noise.noisy)
+            kept = rescued(out, parts, drop, kept_radii, noise.noisy)
+            outputs[f"model, owned, smoothed {t:g}, rescued"] = kept
             outputs[f"model, owned, smoothed {t:g}, seam"] = ball_oracle.seam_smoothed(noise.noisy, out)
+            outputs[f"model, owned, smoothed {t:g}, rescued, seam"] = ball_oracle.seam_smoothed(noise.noisy, kept)
         for name, out in outputs.items():
             s = ball_oracle.scores(out, noise, thin)
             print(f"{case.name:24s} {case.split:9s} {name:28s} AUC fg {aucs[0]:.3f} bg {aucs[1]:.3f} | noise left "
@@ -288,8 +323,9 @@ def main(argv=None):
                         help="train: every ball alike, or each by the voxels it owns (evaluate: the model trained so)")
     parser.add_argument("--thresholds", nargs="+", type=float, default=[0.5],
                         help="evaluate: the smoothed drop chances above which a ball is dropped")
-    parser.add_argument("--context", action="store_true",
-                        help="train, evaluate: the inputs include each ball's skeleton neighbourhood (`context`)")
+    parser.add_argument("--context", nargs="?", const="neighbourhood", choices=("neighbourhood", "course"),
+                        help="train, evaluate: the inputs include each ball's skeleton neighbourhood (`context`); "
+                             "course: and how the skeleton runs there (`course`)")
     args = parser.parse_args(argv)
     if args.step == "features":
         features(args.cases, args.dir, args.heights)

@@ -14,6 +14,7 @@ from skelfilter.evaluation import metrics
 ROOT = os.path.join(os.path.dirname(__file__), "..")
 sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
 import ball_oracle  # noqa: E402
+import learned_ball_decision  # noqa: E402
 
 
 def test_benchmark_writes_every_figure(tmp_path):
@@ -143,6 +144,22 @@ def test_the_seam_smoothing_takes_the_thread_a_decision_left_of_a_handle_and_not
     assert metrics.voxel_genus(noisy)["genus"] == metrics.voxel_genus(out)["genus"] == 1
     assert np.array_equal(smoothed, notched)  # the thread gone, the faces under it as they were
     assert np.array_equal(ball_oracle.seam_smoothed(noisy, noisy), noisy)  # nothing changed: nothing moves
+
+
+def test_the_skeleton_course_tells_a_ball_on_a_rod_from_a_ball_off_it():
+    grid = (40, 40, 40)
+    rod = [(x, 20, 20) for x in range(4, 36)]
+    blob = [(20, 21, 20), (20, 22, 20), (20, 23, 20)]  # a branch off the rod's middle, as a blob's skeleton
+    centres = np.ravel_multi_index(np.array(rod + blob).T, grid)
+    order = np.argsort(centres)
+    columns = [c[np.argsort(order)] for c in learned_ball_decision.course(centres[order], grid, rounds=(8, 16))]
+    linearity, planarity, spread, off_line, off_plane = columns[5:]  # over 16 steps
+    on_rod, middle, tip = len(rod) // 4, len(rod) // 2, len(rod) + 2  # away from the branch, at it, its tip
+    assert linearity[on_rod] > 0.95 and off_line[on_rod] < 0.1
+    assert off_line[tip] > 2.0 > 1.0 > off_line[middle]  # measured: 2.28 and 0.49
+    assert spread[tip] < spread[on_rod] and (planarity >= 0).all() and (off_plane >= 0).all()
+    # over 8 steps the tip's neighbourhood is mostly the branch itself: it lies on its own line
+    assert columns[3][tip] < 0.5
 
 
 def test_procedural_shapes_are_repeatable_solids_with_thin_parts():
