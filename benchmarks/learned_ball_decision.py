@@ -16,8 +16,9 @@ by the oracle where it is 0). A case's shape is a benchmark shape or ``procedura
 noise height replacing the kind's h.
 
 ``train`` fits gradient-boosted trees on every case found in ``--dir`` but the held-out shapes' and
-the ``high`` noise's (kept for evaluating on a noise never trained on): a classifier of
-dropped balls and a regressor of the clean radius (the oracle's cap) of the others. ``--weigh voxels``
+the ``high`` noise's (kept for evaluating on a noise never trained on) and ``--leave-out``'s shapes
+(to measure, on tuning shapes, what the model does on a shape it never saw), into ``--model-dir``: a
+classifier of dropped balls and a regressor of the clean radius (the oracle's cap) of the others. ``--weigh voxels``
 weighs each ball by the voxels it owns (`ball_oracle.ray_owners`), so that the loss counts voxels, not
 balls.
 
@@ -29,9 +30,9 @@ follows a line or a sheet, and how far the ball lies off them).
 ``evaluate`` prints, per case, the classifier's AUC on each side and the scores (`ball_oracle.scores`)
 of the outputs the model gives: the owned output (`ball_oracle.owned_output`: the voxels of dropped
 balls flip), the same with the drop chances averaged over the skeleton (`smoothed_on_skeleton`),
-dropped above each of ``--thresholds``, that output `rescued`: the noisy shape's voxels that a kept
-ball covers, its radius capped at the predicted clean radius, put back on both sides; and both seam
-smoothed (`ball_oracle.seam_smoothed`).
+dropped above each of ``--thresholds`` (``--background-threshold``: the background's, where it
+differs), that output `rescued`: the noisy shape's voxels that a kept ball covers, its radius capped at
+the predicted clean radius, put back on both sides; and both seam smoothed (`ball_oracle.seam_smoothed`).
 """
 
 import argparse
@@ -227,9 +228,10 @@ def _model_file(folder, weigh, with_context):
     return os.path.join(folder, f"model-{weigh}{suffix}.pkl")
 
 
-def train(folder, weigh="balls", with_context=None):
+def train(folder, weigh="balls", with_context=None, leave_out=(), model_folder=None):
     from sklearn.ensemble import HistGradientBoostingClassifier, HistGradientBoostingRegressor
-    names = sorted(n for n in os.listdir(folder) if n.endswith(".npz") and n.split("_")[0] not in quality.HELD_OUT
+    left_out = set(quality.HELD_OUT) | set(leave_out)
+    names = sorted(n for n in os.listdir(folder) if n.endswith(".npz") and n.split("_")[0] not in left_out
                    and "_high" not in n)  # the taller noise is held aside as a kind never trained on
     print("training on", ", ".join(n.removesuffix(".npz") for n in names), flush=True)
     parts, weights = [], []
@@ -253,7 +255,8 @@ def train(folder, weigh="balls", with_context=None):
     classifier = HistGradientBoostingClassifier(**trees).fit(inputs[pick], dropped[pick], sample_weight=weight[pick])
     kept = pick[~dropped[pick]]
     regressor = HistGradientBoostingRegressor(**trees).fit(inputs[kept], cap[kept], sample_weight=weight[kept])
-    with open(_model_file(folder, weigh, with_context), "wb") as f:
+    os.makedirs(model_folder or folder, exist_ok=True)
+    with open(_model_file(model_folder or folder, weigh, with_context), "wb") as f:
         pickle.dump((classifier, regressor), f)
 
 
@@ -279,8 +282,9 @@ def smoothed_on_skeleton(chance, centres, shape, rounds=3):
     return chance
 
 
-def evaluate(cases, folder, weigh="balls", thresholds=(0.5,), with_context=None):
-    with open(_model_file(folder, weigh, with_context), "rb") as f:
+def evaluate(cases, folder, weigh="balls", thresholds=(0.5,), with_context=None, background_threshold=None,
+             model_folder=None):
+    with open(_model_file(model_folder or folder, weigh, with_context), "rb") as f:
         classifier, regressor = pickle.load(f)
     for shape, kind in cases:
         parts = load(folder, shape, kind, with_context=with_context)
@@ -297,7 +301,7 @@ def evaluate(cases, folder, weigh="balls", thresholds=(0.5,), with_context=None)
         outputs = {"model, owned": ball_oracle.owned_output(noise.noisy, owned["fg"], owned["bg"], dropped["fg"],
                                                             dropped["bg"])}
         for t in thresholds:
-            drop = {side: smoothed[side] >= t for side in ("fg", "bg")}
+            drop = {"fg": smoothed["fg"] >= t, "bg": smoothed["bg"] >= (background_threshold or t)}
             out = ball_oracle.owned_output(noise.noisy, owned["fg"], owned["bg"], drop["fg"], drop["bg"])
             outputs[f"model, owned, smoothed {t:g}"] = out
             kept = rescued(out, parts, drop, kept_radii, noise.noisy)
@@ -326,13 +330,19 @@ def main(argv=None):
     parser.add_argument("--context", nargs="?", const="neighbourhood", choices=("neighbourhood", "course"),
                         help="train, evaluate: the inputs include each ball's skeleton neighbourhood (`context`); "
                              "course: and how the skeleton runs there (`course`)")
+    parser.add_argument("--background-threshold", type=float,
+                        help="evaluate: the background's threshold, where it is not the foreground's")
+    parser.add_argument("--leave-out", nargs="+", default=[], choices=sorted(shapes.SHAPES),
+                        help="train: shapes left out of the training, besides the held-aside ones")
+    parser.add_argument("--model-dir", help="train, evaluate: where the model goes (default --dir)")
     args = parser.parse_args(argv)
     if args.step == "features":
         features(args.cases, args.dir, args.heights)
     elif args.step == "train":
-        train(args.dir, args.weigh, args.context)
+        train(args.dir, args.weigh, args.context, args.leave_out, args.model_dir)
     else:
-        evaluate(args.cases, args.dir, args.weigh, args.thresholds, args.context)
+        evaluate(args.cases, args.dir, args.weigh, args.thresholds, args.context, args.background_threshold,
+                 args.model_dir)
     return 0
 
 
