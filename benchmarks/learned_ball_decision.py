@@ -135,6 +135,12 @@ def _adjacency(centres, grid_shape):
     return sparse.csr_matrix((np.ones(len(indices)), indices, indptr), shape=(n, n)), 1.0 + np.diff(indptr)
 
 
+def _with_neighbours(values, adjacency, degree):
+    """``values`` (one row per ball) averaged with the skeleton neighbours' rows: one step of the
+    neighbourhood means of `context`, `course` and `smoothed_on_skeleton`."""
+    return (values + adjacency @ values) / (degree if values.ndim == 1 else degree[:, None])
+
+
 def _neighbour_max(values, adjacency, rounds):
     """The largest of ``values`` within ``rounds`` skeleton steps of each ball."""
     indptr, indices = adjacency.indptr, adjacency.indices
@@ -156,7 +162,7 @@ def context(f, centres, grid_shape):
     for name in ("r", "height2", "height_core"):
         mean = f[name]
         for rounds in range(1, 9):
-            mean = (mean + adjacency @ mean) / degree
+            mean = _with_neighbours(mean, adjacency, degree)
             if rounds in (3, 8):
                 columns.append(mean)
     columns += [_neighbour_max(f["r"], adjacency, 3), _neighbour_max(f["r"], adjacency, 8)]
@@ -180,8 +186,7 @@ def course(centres, grid_shape, rounds=(8, 16)):
     mean, second = xyz, (xyz[:, :, None] * xyz[:, None, :]).reshape(-1, 9)
     columns = []
     for step in range(1, max(rounds) + 1):
-        mean = (mean + adjacency @ mean) / degree[:, None]
-        second = (second + adjacency @ second) / degree[:, None]
+        mean, second = _with_neighbours(mean, adjacency, degree), _with_neighbours(second, adjacency, degree)
         if step not in rounds:
             continue
         covariance = second.reshape(-1, 3, 3) - mean[:, :, None] * mean[:, None, :]
@@ -278,7 +283,7 @@ def smoothed_on_skeleton(chance, centres, shape, rounds=3):
     ``rounds`` times: neighbouring balls of one sheet decided alike."""
     adjacency, degree = _adjacency(centres, shape)
     for _ in range(rounds):
-        chance = (chance + adjacency @ chance) / degree
+        chance = _with_neighbours(chance, adjacency, degree)
     return chance
 
 
@@ -301,7 +306,8 @@ def evaluate(cases, folder, weigh="balls", thresholds=(0.5,), with_context=None,
         outputs = {"model, owned": ball_oracle.owned_output(noise.noisy, owned["fg"], owned["bg"], dropped["fg"],
                                                             dropped["bg"])}
         for t in thresholds:
-            drop = {"fg": smoothed["fg"] >= t, "bg": smoothed["bg"] >= (background_threshold or t)}
+            background = t if background_threshold is None else background_threshold
+            drop = {"fg": smoothed["fg"] >= t, "bg": smoothed["bg"] >= background}
             out = ball_oracle.owned_output(noise.noisy, owned["fg"], owned["bg"], drop["fg"], drop["bg"])
             outputs[f"model, owned, smoothed {t:g}"] = out
             kept = rescued(out, parts, drop, kept_radii, noise.noisy)

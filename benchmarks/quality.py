@@ -323,8 +323,8 @@ def run_oracle(case, setup, save_path):
     prep = load_case(case, setup)
     start = time.perf_counter()
     noisy = prep.noise.noisy
-    owned = ball_oracle.seam_smoothed(noisy, ball_oracle.owned_oracle(noisy, prep.noise.clean))
-    mesh = marching_cubes.mask_to_mesh(owned, prep.grid)
+    decided = ball_oracle.seam_smoothed(noisy, ball_oracle.owned_oracle(noisy, prep.noise.clean))
+    mesh = marching_cubes.mask_to_mesh(decided, prep.grid)
     seconds = time.perf_counter() - start
     if save_path is not None:
         mesh_files.save_mesh(mesh, save_path)
