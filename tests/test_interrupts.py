@@ -182,3 +182,20 @@ def test_nothing_follows_the_error_line_while_the_interpreter_shuts_down(tmp_pat
     assert run.returncode == 2
     lines = run.stderr.splitlines()
     assert len(lines) == 1 and lines[0].startswith("skelfilter: error: ") and "missing.ply" in lines[0], run.stderr
+
+
+def test_a_signal_while_a_kernel_compiles_acts_once_it_is_ready():
+    """numba compiles a kernel, or loads it from its cache, on its first call, and LLVM calls back into
+    Python meanwhile: an interrupt raised inside such a callback crashed ``compare`` (segmentation
+    fault, no line). `compiled.njit` holds it until the kernel is ready; then the call raises it."""
+    code = ("import os, signal\nfrom numba.core import event\nfrom skelfilter.runtime import signals\n"
+            "from skelfilter.runtime.compiled import njit\nsignals.install_handlers()\nsent = []\n"
+            "class SignalOnce(event.Listener):\n    def on_start(self, ev):\n        if not sent:\n"
+            "            sent.append(1)\n            os.kill(os.getpid(), signal.SIGTERM)\n"
+            "    def on_end(self, ev):\n        pass\n"
+            "@njit()\ndef plus_one(x):\n    return x + 1\n"
+            "try:\n    with event.install_listener('numba:compiler_lock', SignalOnce()):\n        plus_one(3)\n"
+            "except signals.Interrupted as exc:\n    print(exc.word, len(plus_one.overloads), plus_one(3), "
+            "signal.SIGTERM in signal.pthread_sigmask(signal.SIG_BLOCK, []))\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert (proc.returncode, proc.stdout, proc.stderr) == (0, "terminated 1 4 True\n", "")

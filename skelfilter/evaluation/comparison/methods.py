@@ -33,7 +33,9 @@ def run_method(method, noisy, clean, config):
     """Apply ``method`` (a :class:`~skelfilter.evaluation.comparison.config.Method`) to ``noisy``; never raises on a
     failure of the method itself."""
     start = time.perf_counter()
-    progress = Progress(enabled=False)
+    # Each step held (`skelfilter.runtime.signals.deferred`): an interrupt while numba boxed a kernel's
+    # results crashed the process (a tuple with a missing array); it acts as the step ends.
+    progress = Progress(enabled=False, shield=True)
     try:
         if method.kind == "noisy":
             mesh = noisy

@@ -33,6 +33,7 @@ from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.mesh import voxelize
 from skelfilter.params import DenoiseParams
 from skelfilter.runtime.extras import load
+from skelfilter.runtime.progress import Progress
 from skelfilter.runtime.signals import deferred
 
 COLOUR_RANGE = (0.0, 3.0)  # voxels, the colour maps' scale
@@ -105,7 +106,9 @@ def _pictures(case_dir, name, mesh, clean, grid, cameras, size):
 
 def run_case(case, config, out_dir, say, pool):
     """All methods on one case; returns the case's entry of results.json and its noise masks (or None)."""
-    clean, noisy, grid, noise, facts = prepare_case(case, config)
+    # The steps that run numba's kernels here hold an interrupt until they end (see `methods.run_method`).
+    with deferred():
+        clean, noisy, grid, noise, facts = prepare_case(case, config)
     case_dir = os.path.join(out_dir, slug(case.name))
     os.makedirs(case_dir, exist_ok=True)
     mesh_files.save_mesh(noisy, os.path.join(case_dir, "input-noisy.ply"))
@@ -123,13 +126,15 @@ def run_case(case, config, out_dir, say, pool):
         if outcome.route is not None:
             entry["route"] = outcome.route
         if outcome.error is None:
-            entry["metrics"] = metrics.mesh_metrics(outcome.mesh, clean, grid, noise)
+            with deferred():
+                entry["metrics"] = metrics.mesh_metrics(outcome.mesh, clean, grid, noise)
             entry["error"] = entry["metrics"].get("error")
         if entry["error"] is None:
             entry["mesh"] = os.path.join(case_dir, f"{slug(method.name)}.ply")
             mesh_files.save_mesh(outcome.mesh, entry["mesh"])
-            entry["images"] = _pictures(case_dir, method.name, outcome.mesh, clean, grid, cameras,
-                                        config.image_size)
+            with deferred():
+                entry["images"] = _pictures(case_dir, method.name, outcome.mesh, clean, grid, cameras,
+                                            config.image_size)
         say(f"{case.name}: {method.name} " + (f"{outcome.seconds:.1f} s" if entry["error"] is None
                                               else f"FAILED: {entry['error']}"))
         entries.append(entry)
@@ -147,7 +152,7 @@ def threshold_sweep(name, noise, config, method, say):
         start = time.perf_counter()
         params = base.with_(threshold=t, threshold_relative=None,
                             geodesic_cap=None if base.geodesic_cap is None else max(base.geodesic_cap, 2 * t))
-        mask = pipeline.denoise_volume(noise.noisy, params).mask
+        mask = pipeline.denoise_volume(noise.noisy, params, Progress(enabled=False, shield=True)).mask
         dents = noise.dents
         rows.append({
             "t": t,
