@@ -14,6 +14,7 @@ from skelfilter.evaluation import metrics
 ROOT = os.path.join(os.path.dirname(__file__), "..")
 sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
 import ball_oracle  # noqa: E402
+import dent_indicator  # noqa: E402
 import learned_ball_decision  # noqa: E402
 
 
@@ -175,3 +176,17 @@ def test_procedural_shapes_are_repeatable_solids_with_thin_parts():
     assert first.is_watertight and first.is_volume
     grid = voxelize(shapes.load("procedural-3"), resolution=160)[0]
     assert 0.05 < thin_parts(grid, 4.0).sum() / grid.sum() < 0.9
+
+
+def test_the_dent_indicator_against_counting_windows():
+    rng = np.random.default_rng(3)
+    mask = np.zeros((14, 14, 14), dtype=bool)
+    mask[3:11, 3:11, 3:11] = rng.random((8, 8, 8)) < 0.6
+    w, h = 3, 1
+    deep = high = 0
+    for x, y, z in np.ndindex(mask.shape):
+        mean = mask[max(x - h, 0):x + h + 1, max(y - h, 0):y + h + 1, max(z - h, 0):z + h + 1].sum() / w ** 3
+        deep += (not mask[x, y, z]) and mean >= dent_indicator.DEEP
+        high += bool(mask[x, y, z]) and mean < 1 - dent_indicator.DEEP
+    assert deep and high
+    assert dent_indicator.indicator(mask, w) == pytest.approx(deep / high, rel=1e-6)
