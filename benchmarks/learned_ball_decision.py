@@ -13,7 +13,9 @@ the default's pruned reconstruction and to the noisy shape smoothed by Gaussians
 the noise estimate's height; and its labels: the clean distance at its centre (the ball is *dropped*
 by the oracle where it is 0). A case's shape is a benchmark shape or ``procedural-SEED``
 (`shapes.procedural`: a body with rods and plates 2-8 voxels thick); ``--heights`` writes one file per
-noise height replacing the kind's h.
+noise height replacing the kind's h. The kind ``clean`` is the shape without noise (every ball kept):
+in training it shows the model clean thin parts; in evaluating it measures what the decision does to
+an input that needs nothing.
 
 ``train`` fits gradient-boosted trees on every case found in ``--dir`` but the held-out shapes' and
 the ``high`` noise's (kept for evaluating on a noise never trained on) and ``--leave-out``'s shapes
@@ -63,22 +65,26 @@ MEASURES = ("r", "rho", "rho_plus", "sigma_bar", "lambda", "kept", "sd_core", "s
             "sd_smooth3", "noise_height", "noise_found")
 THICK_RADII = (3.0, 5.0, 8.0)  # voxels
 FAR_STEPS = 60  # skeleton steps: farther from a thick ball counts as this far
+CLEAN = "clean"  # the kind of a case without noise: every ball is kept
 TRAINING_BALLS = 1_500_000  # drawn at random from the tuning cases
 
 
 def _case(text):
     shape, _, kind = text.partition(":")
-    if (shape not in shapes.SHAPES and not shape.startswith("procedural-")) or kind not in quality.NOISE_KINDS:
-        raise argparse.ArgumentTypeError(f"a case is SHAPE:KIND (SHAPE of the benchmark or procedural-SEED), got "
-                                         f"{text!r}")
+    if (shape not in shapes.SHAPES and not shape.startswith("procedural-")) or kind not in (*quality.NOISE_KINDS,
+                                                                                             CLEAN):
+        raise argparse.ArgumentTypeError(f"a case is SHAPE:KIND (SHAPE of the benchmark or procedural-SEED, KIND a "
+                                         f"noise kind or {CLEAN}), got {text!r}")
     return shape, kind
 
 
 def _noise(shape, kind, height=None):
-    """The case and its noise; ``height`` replaces the kind's h (voxels)."""
+    """The case and its noise; ``height`` replaces the kind's h (voxels); the kind `CLEAN` has none."""
     case = quality.Case(shape, kind, 1)
-    noise = case.noise(RESOLUTION)
-    if height is not None:
+    noise = quality.Case(shape, "stripes", 1).noise(RESOLUTION) if kind == CLEAN else case.noise(RESOLUTION)
+    if kind == CLEAN:
+        noise = dataclasses.replace(noise, p=0.0)
+    elif height is not None:
         noise = dataclasses.replace(noise, h=height)
     return case, mesh_pipeline.noisy_mesh(shapes.load(shape), noise)[1]
 

@@ -190,3 +190,14 @@ def test_the_dent_indicator_against_counting_windows():
         high += bool(mask[x, y, z]) and mean < 1 - dent_indicator.DEEP
     assert deep and high
     assert dent_indicator.indicator(mask, w) == pytest.approx(deep / high, rel=1e-6)
+
+
+def test_the_learned_decisions_clean_kind_is_the_shape_without_noise():
+    assert learned_ball_decision._case("cube:clean") == ("cube", "clean")
+    with pytest.raises(Exception, match="SHAPE:KIND"):
+        learned_ball_decision._case("cube:spotless")
+    _, noise = learned_ball_decision._noise("cube", "clean")
+    assert noise.clean.any() and np.array_equal(noise.noisy, noise.clean)
+    assert not noise.bumps.any() and not noise.dents.any()
+    _, noisy = learned_ball_decision._noise("cube", "stripes")
+    assert np.array_equal(noisy.clean, noise.clean) and noisy.bumps.any()
