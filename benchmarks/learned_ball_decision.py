@@ -71,8 +71,8 @@ TRAINING_BALLS = 1_500_000  # drawn at random from the tuning cases
 
 def _case(text):
     shape, _, kind = text.partition(":")
-    if (shape not in shapes.SHAPES and not shape.startswith("procedural-")) or kind not in (*quality.NOISE_KINDS,
-                                                                                             CLEAN):
+    known_shape = shape in shapes.SHAPES or shape.startswith("procedural-")
+    if not known_shape or kind not in (*quality.NOISE_KINDS, CLEAN):
         raise argparse.ArgumentTypeError(f"a case is SHAPE:KIND (SHAPE of the benchmark or procedural-SEED, KIND a "
                                          f"noise kind or {CLEAN}), got {text!r}")
     return shape, kind
@@ -81,11 +81,12 @@ def _case(text):
 def _noise(shape, kind, height=None):
     """The case and its noise; ``height`` replaces the kind's h (voxels); the kind `CLEAN` has none."""
     case = quality.Case(shape, kind, 1)
-    noise = quality.Case(shape, "stripes", 1).noise(RESOLUTION) if kind == CLEAN else case.noise(RESOLUTION)
-    if kind == CLEAN:
-        noise = dataclasses.replace(noise, p=0.0)
-    elif height is not None:
-        noise = dataclasses.replace(noise, h=height)
+    if kind == CLEAN:  # any kind's parameters, with no incident sites
+        noise = dataclasses.replace(quality.Case(shape, "stripes", 1).noise(RESOLUTION), p=0.0)
+    else:
+        noise = case.noise(RESOLUTION)
+        if height is not None:
+            noise = dataclasses.replace(noise, h=height)
     return case, mesh_pipeline.noisy_mesh(shapes.load(shape), noise)[1]
 
 

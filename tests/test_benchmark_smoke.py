@@ -1,5 +1,6 @@
 """Smoke test of the benchmark at one small size (no timing assertions)."""
 
+import argparse
 import json
 import os
 import re
@@ -194,7 +195,7 @@ def test_the_dent_indicator_against_counting_windows():
 
 def test_the_learned_decisions_clean_kind_is_the_shape_without_noise():
     assert learned_ball_decision._case("cube:clean") == ("cube", "clean")
-    with pytest.raises(Exception, match="SHAPE:KIND"):
+    with pytest.raises(argparse.ArgumentTypeError, match="SHAPE:KIND"):
         learned_ball_decision._case("cube:spotless")
     _, noise = learned_ball_decision._noise("cube", "clean")
     assert noise.clean.any() and np.array_equal(noise.noisy, noise.clean)
