@@ -17,6 +17,7 @@ sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
 import ball_oracle  # noqa: E402
 import dent_indicator  # noqa: E402
 import learned_ball_decision  # noqa: E402
+import noise_coverage  # noqa: E402
 
 
 def test_benchmark_writes_every_figure(tmp_path):
@@ -202,3 +203,13 @@ def test_the_learned_decisions_clean_kind_is_the_shape_without_noise():
     assert not noise.bumps.any() and not noise.dents.any()
     _, noisy = learned_ball_decision._noise("cube", "stripes")
     assert np.array_equal(noisy.clean, noise.clean) and noisy.bumps.any()
+
+
+def test_the_noise_coverage_finds_noise_on_a_noisy_cube_and_none_on_the_clean_one(capsys, monkeypatch):
+    monkeypatch.setattr(noise_coverage, "CLEAN_GRIDS", ((128, 6),))
+    noise_coverage.main(["--groups", "clean", "--shapes", "cube"])
+    assert "== clean, tuning: found on 0 of 1" in capsys.readouterr().out
+    noisy = noise_coverage.quality.Case("cube", "stripes", 1).noise(96)
+    mask = noise_coverage.mesh_pipeline.noisy_mesh(noise_coverage.shapes.load("cube"), noisy)[1].noisy
+    estimate = noise_coverage.estimate(mask)
+    assert estimate.found  # coverage 0.076 at 96 voxels

@@ -47,18 +47,51 @@ def test_height_above_matches_brute_force():
     np.testing.assert_allclose(full, _brute_height(part, base), atol=1e-5)
 
 
-def test_peaks_and_surface_cells_match_scipy():
+def _brute_dynamics(height):
+    """{top voxel: dynamic} of every regional maximum of ``height`` (distinct values > 0): the drop
+    from its top to the highest level at which its 26-connected level set holds a higher voxel."""
+    cube = np.ones((3, 3, 3), dtype=bool)
+    levels = np.unique(height[height > 0])[::-1]
+    tops = (ndimage.maximum_filter(height, footprint=cube, mode="constant") == height) & (height > 0)
+    dynamics = {}
+    for top in map(tuple, np.argwhere(tops)):
+        peak = height[top]
+        dynamics[top] = peak  # no higher voxel joins it above the floor
+        for level in levels[levels <= peak]:
+            labels = ndimage.label(height >= level, structure=cube)[0]
+            if height[labels == labels[top]].max() > peak:
+                dynamics[top] = peak - level
+                break
+    return dynamics
+
+
+def test_prominent_peaks_and_surface_cells_match_brute_force():
     rng = np.random.default_rng(5)
-    for shape in ((9, 11, 7), (1, 6, 6), (20, 3, 14)):
-        height = rng.integers(0, 8, shape).astype(np.float32) * np.float32(0.7)
-        for window in (3, 5):
-            top = ndimage.maximum_filter(height, size=window)
-            expected = (height >= 3.0) & (height >= top) & (height <= 4.5)
-            assert np.array_equal(noise_estimate.local_peaks(height, 3.0, 4.5, window), expected)
+    for shape in ((8, 9, 10), (1, 6, 6), (12, 3, 9)):
+        for _ in range(6):
+            height = ndimage.gaussian_filter(rng.random(shape), 1.0)
+            height = np.maximum((height - np.quantile(height, 0.3)) * 40, 0).astype(np.float32)
+            for least in (0.2, 0.6, 1.5):
+                tops, heights = noise_estimate.prominent_peaks(height, least)
+                expected = {top for top, dynamic in _brute_dynamics(height).items() if dynamic >= least}
+                assert set(map(tuple, tops)) == expected
+                np.testing.assert_array_equal(heights, height[tuple(tops.T)])
         volume = rng.random(shape) < 0.8  # set voxels on the array's faces too
         for cell in (1, 2, 3):
             surface = np.argwhere(volume & ~ndimage.binary_erosion(volume)) // cell
             assert noise_estimate.surface_cells(volume, cell) == len(np.unique(surface, axis=0))
+
+
+def test_a_plateau_and_a_wiggling_ridge_are_one_peak():
+    height = np.zeros((3, 3, 20), dtype=np.float32)
+    height[1, 1, 2:18] = 4.0
+    height[1, 1, 2:18:3] = 4.5  # wiggles of half a voxel along the ridge
+    height[1, 1, 17] = 6.0
+    tops, heights = noise_estimate.prominent_peaks(height, 1.0)
+    assert [tuple(t) for t in tops] == [(1, 1, 17)] and heights.tolist() == [6.0]
+    height[1, 1, 10] = 1.0  # a saddle 3.5 below the lower top: two peaks
+    tops, heights = noise_estimate.prominent_peaks(height, 1.0)
+    assert sorted(heights.tolist()) == [4.5, 6.0]
 
 
 def test_height_above_is_capped_far_from_the_base():
@@ -78,9 +111,12 @@ def test_clean_block_passes_as_noise_free():
 def test_many_low_bumps_are_found_with_their_height():
     body = _block((80, 80, 50), 10, 70)
     body[:, :, 30:] = False
-    noisy = _bumps(body, 60, 4, seed=1)
+    noisy = body.copy()
+    for x in range(13, 68, 5):  # 121 columns 3 x 3 wide, 2 voxels apart: each is a peak of its own
+        for y in range(13, 68, 5):
+            noisy[x - 1:x + 2, y - 1:y + 2, 30:34] = True
     estimate = noise_estimate.estimate_noise(noisy, body, 60)
-    assert estimate.found
+    assert estimate.found and estimate.peaks == 121
     assert 3.5 <= estimate.height <= 4.5  # the columns stand 4 voxels above the body
     assert "4." in estimate.describe()
 
@@ -96,7 +132,7 @@ def test_a_few_tall_features_are_not_noise():
 
 def test_slats_along_the_surface_are_not_noise():
     # Long bars standing 4 voxels on the top face (a chair's slats pruned along their length): their
-    # ridges cross many cells (0.11 of them counted voxel by voxel), but each is one plateau.
+    # ridges cross many cells (0.11 of them counted voxel by voxel), but each is one peak.
     body = _block((80, 80, 50), 10, 70)
     body[:, :, 30:] = False
     slats = body.copy()

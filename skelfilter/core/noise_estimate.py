@@ -10,20 +10,19 @@ its convex edges. The three differ in how high they stand above K (the distance 
 - a feature (a leg, a wing, a fin, a rim) stands much higher, or is one of a few;
 - an edge's skin stands a voxel or two.
 
-So the estimate looks at the *peaks* of the height over X \\ K (local maxima over a 5³ window, at
-least `LEAST_PEAK` voxels high and at most `HIGHEST_NOISE` of the model's size) and at how much of
-the surface they are spread over: the share of surface cells (cubes of `CELL` of the size) holding a
-peak, a plateau of peaks longer than `RIDGE` counted in one cell only (a feature's ridge,
-pruned along its length, is one plateau however many cells it crosses: a chair's slats at 128 voxels
-covered 10 % of the cells counted voxel by voxel). Noise is found where that share reaches
-`LEAST_COVERAGE`; its height is the `HEIGHT_QUANTILE`
-quantile of the peaks' heights.
+So the estimate looks at the *peaks* of the height over X \\ K that rise at least `LEAST_DYNAMIC`
+above the saddle joining them to a higher one (`prominent_peaks`; a plateau or a ridge whose voxel
+wiggles rise less is one peak), at least `LEAST_PEAK` voxels high and at most `HIGHEST_NOISE` of the
+model's size, and at how much of the surface they are spread over: the share of surface cells (cubes
+of `CELL` of the size) holding a peak's top. Noise is found where that share reaches `LEAST_COVERAGE`;
+its height is the `HEIGHT_QUANTILE` quantile of the peaks' heights.
 
-Chosen on the tuning shapes of ``benchmarks/quality.py`` at resolution 160 after a pruning at
-t = 0.1875 of the size: clean shapes cover at most 0.05 of their cells (a heat sink's fins, a mug's
-rim), the thesis' noise at least 0.13 (sparse stripes on a chair) and mostly 0.15-0.5; the heights
-found are 6-8 voxels for h = 3 (the bumps stand h + r = 5.1 above the clean surface, which the
-pruning lowers by a voxel or two) and 10-11 for h = 7. See ``docs/noise-estimate.md``.
+Measured with ``benchmarks/noise_coverage.py`` after the default's pruning (t = 0.1875 of the size):
+the 17 benchmark shapes clean, as volumes at 128-224 voxels on two grid offsets, cover at most 0.036
+of their cells (a gear's teeth: each tooth's tip is one ridge whose corners rise less than a voxel
+above it); the thesis' noise at 160 voxels is found on the same 150 of 170 cases as with the former
+peaks (5³-window maxima, which counted the teeth's corners apart: 0.10 on the clean gear, noise), and
+the height found is within a voxel of theirs (median +0.03). See ``docs/noise-estimate.md``.
 """
 
 from dataclasses import dataclass
@@ -39,10 +38,9 @@ from skelfilter.runtime.compiled import njit
 LEAST_PEAK = 3.0  # voxels: lower peaks are skins and relief (the clean shapes' peaks are mostly 2-3)
 HIGHEST_NOISE = 0.075  # of the size: taller peaks are features whatever the estimate (12 voxels at 160)
 CELL = 1.0 / 20.0  # of the size: the side of the cells over which the coverage is counted
-LEAST_COVERAGE = 0.08  # share of surface cells with a peak from which noise is found
+LEAST_COVERAGE = 0.05  # share of surface cells with a peak from which noise is found
+LEAST_DYNAMIC = 1.0  # voxels: a peak rises this much above its saddle to a higher one (the EDT's step)
 HEIGHT_QUANTILE = 99.0
-PEAK_WINDOW = 5  # voxels: the side of the window in which a peak is the highest
-RIDGE = 2 * PEAK_WINDOW  # voxels: a plateau of peaks longer than this is a ridge (counted in one cell)
 
 
 @dataclass(frozen=True)
@@ -135,39 +133,88 @@ def _mark_surface_cells(x, cell, held):
                         held[ci, j // cell, k // cell] = True
 
 
-def local_peaks(height, least, highest, window):
-    """Voxels whose ``height`` lies in [least, highest] and is the largest of the ``window``-sided cube
-    around them (clipped to the array): ``maximum_filter(height, window) <= height`` there, scipy's
-    reflected border giving the same maximum.
+def prominent_peaks(height, least_dynamic):
+    """The tops of the peaks of ``height`` (> 0; 0 is the floor) that rise at least ``least_dynamic``
+    above the highest saddle joining them to a higher peak (their *dynamic*), 26-connected.
+
+    One sweep from the highest voxel down joins voxels into peaks with a union-find: where two peaks
+    meet at a voxel of height v, the lower one ends with dynamic = its top - v (the younger, on equal
+    tops); a peak that meets none ends on the floor, with dynamic = its top. A plateau, or a ridge
+    whose voxel-sized wiggles rise less than ``least_dynamic``, is one peak. n log n (the sort).
+
+    Returns
+    -------
+    (int ndarray (n, 3), float32 ndarray (n,))
+        The peaks' top voxels (the first in C order on a flat top) and their heights.
+
+    References
+    ----------
+    .. [1] M. Grimaud, "New measure of contrast: the dynamics", Proc. SPIE 1769, Image Algebra and
+           Morphological Image Processing III, 1992 (the dynamic of a regional maximum).
 
     Examples
     --------
     >>> import numpy as np
-    >>> h = np.zeros((5, 5, 5), np.float32); h[2, 2, 2] = 4; h[2, 2, 3] = 3
-    >>> [tuple(int(i) for i in p) for p in np.argwhere(local_peaks(h, 3.0, 9.0, 3))]
-    [(2, 2, 2)]
+    >>> h = np.zeros((1, 1, 7), np.float32); h[0, 0] = [0, 4, 3.5, 5, 1, 3, 0]
+    >>> tops, heights = prominent_peaks(h, 1.0)
+    >>> [int(t[2]) for t in tops], [float(x) for x in heights]
+    ([5, 3], [3.0, 5.0])
     """
-    out = np.zeros(height.shape, dtype=bool)
-    _local_peaks(np.ascontiguousarray(height), np.float32(least), np.float32(highest), window // 2, out)
-    return out
+    height = np.ascontiguousarray(height, dtype=np.float32)
+    flat = height.ravel()
+    voxels = np.flatnonzero(flat > 0)
+    order = voxels[np.argsort(-flat[voxels], kind="stable")]
+    rank = np.full(flat.size, -1, dtype=np.int32)
+    rank[order] = np.arange(len(order), dtype=np.int32)
+    ends = np.empty(len(order), dtype=np.int32)
+    count = _sweep(height, order, rank, np.float32(least_dynamic), ends)
+    tops = order[ends[:count]]
+    return np.column_stack(np.unravel_index(tops, height.shape)), flat[tops]
 
 
-@njit(parallel=True)
-def _local_peaks(h, least, highest, reach, out):
+@njit()
+def _root(parent, i):
+    root = i
+    while parent[root] != root:
+        root = parent[root]
+    while parent[i] != root:
+        parent[i], i = root, parent[i]
+    return root
+
+
+@njit()
+def _sweep(h, order, rank, least_dynamic, ends):
+    # Voxels by rank (highest first); a peak's root's rank is its top's, so the older peak (higher,
+    # or first on equal tops) has the smaller root. ``ends`` gets the top ranks of the peaks kept.
     nx, ny, nz = h.shape
-    for i in prange(nx):
-        for j in range(ny):
-            for k in range(nz):
-                v = h[i, j, k]
-                if v < least or v > highest:
-                    continue
-                top = True
-                for a in range(max(i - reach, 0), min(i + reach + 1, nx)):
-                    for b in range(max(j - reach, 0), min(j + reach + 1, ny)):
-                        for c in range(max(k - reach, 0), min(k + reach + 1, nz)):
-                            if h[a, b, c] > v:
-                                top = False
-                out[i, j, k] = top
+    parent = np.arange(len(order), dtype=np.int32)
+    count = 0
+    for r in range(len(order)):
+        v = order[r]
+        i, j, k = v // (ny * nz), (v // nz) % ny, v % nz
+        level = h[i, j, k]
+        for a in range(max(i - 1, 0), min(i + 2, nx)):
+            for b in range(max(j - 1, 0), min(j + 2, ny)):
+                for c in range(max(k - 1, 0), min(k + 2, nz)):
+                    u = rank[(a * ny + b) * nz + c]
+                    if u < 0 or u >= r:
+                        continue
+                    ru, rv = _root(parent, u), _root(parent, r)
+                    if ru == rv:
+                        continue
+                    old, young = min(ru, rv), max(ru, rv)
+                    top = order[young]
+                    if h[top // (ny * nz), (top // nz) % ny, top % nz] - level >= least_dynamic:
+                        ends[count] = young
+                        count += 1
+                    parent[young] = old
+    for r in range(len(order)):
+        if parent[r] == r:
+            top = order[r]
+            if h[top // (ny * nz), (top // nz) % ny, top % nz] >= least_dynamic:
+                ends[count] = r
+                count += 1
+    return count
 
 
 def _cells(coords, box, cell):
@@ -209,21 +256,10 @@ def estimate_noise(stage_set, pruned, resolution, side="bumps"):
     box, height = height_above(removed, pruned, highest + 1)
     if box is None or surface == 0:
         return NoiseEstimate(side, False, 0.0, 0.0, 0)
-    peaks = local_peaks(height, LEAST_PEAK, highest, PEAK_WINDOW)
-    labels, count = ndimage.label(peaks, structure=np.ones((3, 3, 3), dtype=bool))
-    # A plateau of peaks longer than RIDGE is a feature's ridge (a slat, a rim pruned along
-    # its length): it counts in one cell, its first voxel's, however many cells it crosses.
-    coords = np.argwhere(peaks)
-    plateau = labels[peaks]  # in the order of coords (both C order)
-    _, first = np.unique(plateau, return_index=True)
-    extent = np.array([max(s.stop - s.start for s in b) for b in ndimage.find_objects(labels)])
-    counted = extent[plateau - 1] <= RIDGE
-    counted[first] = True
-    coverage = len(_cells(coords[counted], box, cell)) / surface if count else 0.0
+    tops, heights = prominent_peaks(height, LEAST_DYNAMIC)
+    noise = (heights >= LEAST_PEAK) & (heights <= highest)
+    tops, heights = tops[noise], heights[noise]
+    coverage = len(_cells(tops, box, cell)) / surface
     if coverage < LEAST_COVERAGE:
-        return NoiseEstimate(side, False, 0.0, float(coverage), int(count))
-    # The highest voxel of each plateau (on the peak voxels only: no sort of the whole box).
-    heights = np.zeros(count + 1, dtype=np.float32)
-    np.maximum.at(heights, plateau, height[peaks])
-    heights = heights[1:]
-    return NoiseEstimate(side, True, float(np.percentile(heights, HEIGHT_QUANTILE)), float(coverage), int(count))
+        return NoiseEstimate(side, False, 0.0, float(coverage), len(heights))
+    return NoiseEstimate(side, True, float(np.percentile(heights, HEIGHT_QUANTILE)), float(coverage), len(heights))
