@@ -164,9 +164,10 @@ def prominent_peaks(height, least_dynamic):
     flat = height.ravel()
     voxels = np.flatnonzero(flat > 0)
     order = voxels[np.argsort(-flat[voxels], kind="stable")]
-    rank = np.full(flat.size, -1, dtype=np.int32)
-    rank[order] = np.arange(len(order), dtype=np.int32)
-    ends = np.empty(len(order), dtype=np.int32)
+    index = np.int32 if len(order) <= np.iinfo(np.int32).max else np.int64
+    rank = np.full(flat.size, -1, dtype=index)
+    rank[order] = np.arange(len(order), dtype=index)
+    ends = np.empty(len(order), dtype=index)
     count = _sweep(height, order, rank, np.float32(least_dynamic), ends)
     tops = order[ends[:count]]
     return np.column_stack(np.unravel_index(tops, height.shape)), flat[tops]
@@ -187,7 +188,7 @@ def _sweep(h, order, rank, least_dynamic, ends):
     # Voxels by rank (highest first); a peak's root's rank is its top's, so the older peak (higher,
     # or first on equal tops) has the smaller root. ``ends`` gets the top ranks of the peaks kept.
     nx, ny, nz = h.shape
-    parent = np.arange(len(order), dtype=np.int32)
+    parent = np.arange(len(order), dtype=rank.dtype)
     count = 0
     for r in range(len(order)):
         v = order[r]
