@@ -168,7 +168,7 @@ def prominent_peaks(height, least_dynamic):
     rank = np.full(flat.size, -1, dtype=index)
     rank[order] = np.arange(len(order), dtype=index)
     ends = np.empty(len(order), dtype=index)
-    count = _sweep(height, order, rank, np.float32(least_dynamic), ends)
+    count = _sweep(height.shape, order, flat[order], rank, np.float32(least_dynamic), ends)
     tops = order[ends[:count]]
     return np.column_stack(np.unravel_index(tops, height.shape)), flat[tops]
 
@@ -184,16 +184,16 @@ def _root(parent, i):
 
 
 @njit()
-def _sweep(h, order, rank, least_dynamic, ends):
-    # Voxels by rank (highest first); a peak's root's rank is its top's, so the older peak (higher,
-    # or first on equal tops) has the smaller root. ``ends`` gets the top ranks of the peaks kept.
-    nx, ny, nz = h.shape
+def _sweep(shape, order, heights, rank, least_dynamic, ends):
+    # Voxels by rank (highest first, ``heights`` in that order); a peak's root's rank is its top's, so
+    # the older peak (higher, or first on equal tops) has the smaller root. ``ends`` gets the top ranks
+    # of the peaks kept.
+    nx, ny, nz = shape
     parent = np.arange(len(order), dtype=rank.dtype)
     count = 0
     for r in range(len(order)):
         v = order[r]
         i, j, k = v // (ny * nz), (v // nz) % ny, v % nz
-        level = h[i, j, k]
         for a in range(max(i - 1, 0), min(i + 2, nx)):
             for b in range(max(j - 1, 0), min(j + 2, ny)):
                 for c in range(max(k - 1, 0), min(k + 2, nz)):
@@ -204,17 +204,14 @@ def _sweep(h, order, rank, least_dynamic, ends):
                     if ru == rv:
                         continue
                     old, young = min(ru, rv), max(ru, rv)
-                    top = order[young]
-                    if h[top // (ny * nz), (top // nz) % ny, top % nz] - level >= least_dynamic:
+                    if heights[young] - heights[r] >= least_dynamic:
                         ends[count] = young
                         count += 1
                     parent[young] = old
     for r in range(len(order)):
-        if parent[r] == r:
-            top = order[r]
-            if h[top // (ny * nz), (top // nz) % ny, top % nz] >= least_dynamic:
-                ends[count] = r
-                count += 1
+        if parent[r] == r and heights[r] >= least_dynamic:
+            ends[count] = r
+            count += 1
     return count
 
 
