@@ -5,6 +5,7 @@ import pytest
 from scipy import ndimage
 
 from skelfilter.core import feature_restore, noise_estimate
+from skelfilter.core.line_opening import line_opening
 
 
 def _brute_height(part, base):
@@ -197,3 +198,42 @@ def test_features_by_extent_never_adds_outside_the_removed_set(height):
     pruned = ndimage.binary_erosion(shape, iterations=2)
     restored = feature_restore.features_by_extent(shape, pruned, height)
     assert not (restored & ~(shape & ~pruned)).any()
+
+
+@pytest.mark.parametrize("radius", [1.0, 2.0, 3.0])
+def test_ball_closing_matches_scipy_closing_by_a_ball(radius):
+    volume = np.random.default_rng(int(radius)).random((14, 12, 10)) < 0.5
+    r = int(radius)
+    grid = np.indices((2 * r + 1,) * 3) - r
+    ball = (grid ** 2).sum(axis=0) <= radius ** 2
+    padded = np.pad(volume, r + 1)
+    expected = ndimage.binary_closing(padded, structure=ball)[r + 1:-r - 1, r + 1:-r - 1, r + 1:-r - 1]
+    assert (feature_restore.ball_closing(volume, radius) == expected).all()
+
+
+def test_along_lines_keeps_a_dented_leg_and_drops_the_blobs_on_it():
+    body = _block((40, 40, 80), 5, 35)
+    body[:, :, 35:] = False
+    leg = np.zeros_like(body)
+    leg[17:23, 17:23, 35:75] = True  # 6 voxels wide, 40 long
+    noisy = body | leg
+    noisy[23:27, 18:22, 50:54] = True  # a blob 4 voxels out of one side: 10 across with the leg
+    noisy[17:20, 17:23, 60:63] = False  # a dent 3 deep across it
+    noisy[17:20, 20:23, 45:48] = False
+    restored = feature_restore.features_by_extent(noisy, body, 6.0)
+    kept = feature_restore.along_lines(noisy, restored, 6.0)
+    assert (kept >= (leg & noisy)).all()
+    assert not kept[23:27, 18:22, 50:54].any()  # runs of 11 voxels (1.75 x 6) find none through it
+    assert not (kept & ~restored).any()
+
+
+def test_along_lines_on_its_crop_equals_the_whole_grid():
+    rng = np.random.default_rng(3)
+    shape = ndimage.binary_closing(rng.random((70, 40, 40)) < 0.6, iterations=2)
+    restored = shape.copy()
+    restored[:30] = False
+    restored[:, :10] = False
+    height = 4.0
+    length = int(np.ceil(feature_restore.RUN_PER_HEIGHT * height))
+    whole = restored & line_opening(feature_restore.ball_closing(shape, feature_restore.DENT_FILL), length)
+    assert whole.any() and (feature_restore.along_lines(shape, restored, height) == whole).all()

@@ -113,11 +113,13 @@ def keep_features(stage_set, stage, params, side, progress):
 
     The noise is measured on what the pruning removed (`noise_estimate.estimate_noise`), unless
     ``params.noise_height`` gives its height. Removed parts standing higher than the noise (with
-    `feature_restore.MARGIN`) come back whole (`feature_restore.features_by_extent`), and so do
-    whatever joined pieces that the pruning cut apart (`feature_restore.connections`) and the skin
-    of edges away from the noise (`feature_restore.skin_far_from_noise`). Where no noise is found
-    and neither the noise height nor the threshold was given, everything comes back: the input
-    passes through. Returns the `noise_estimate.NoiseEstimate`, also told through ``progress``.
+    `feature_restore.MARGIN`) come back (`feature_restore.features_by_extent`) but for the noise
+    on them, which no straight run of the shape longer than the noise passes through
+    (`feature_restore.along_lines`); and so do whatever joined pieces that the pruning cut apart
+    (`feature_restore.connections`) and the skin of edges away from the noise
+    (`feature_restore.skin_far_from_noise`). Where no noise is found and neither the noise height nor
+    the threshold was given, everything comes back: the input passes through. Returns the
+    `noise_estimate.NoiseEstimate`, also told through ``progress``.
     """
     with progress.step("noise estimate"):
         estimate = noise_estimate.estimate_noise(stage_set, stage.mask, params.resolution, side)
@@ -130,6 +132,7 @@ def keep_features(stage_set, stage, params, side, progress):
             restored = stage_set & ~stage.mask
         else:
             restored = feature_restore.features_by_extent(stage_set, stage.mask, height)
+            restored = feature_restore.along_lines(stage_set, restored, height)
             restored |= feature_restore.connections(stage_set, stage.mask | restored, height)
             restored |= feature_restore.skin_far_from_noise(stage_set, stage.mask | restored,
                                                             feature_restore.SKIN_REACH)

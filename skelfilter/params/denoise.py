@@ -121,7 +121,8 @@ class DenoiseParams:
         "Keep features",
         "'on': measure the noise on what the pruning removes (how high its peaks stand above the "
         "kept shape, and over how much of the surface) and give back what is no noise: every "
-        "removed part that stands higher than the noise (a leg, a wing, a fin, a rim) whole, and "
+        "removed part that stands higher than the noise (a leg, a wing, a fin, a rim), but for the "
+        "noise on it, which no straight run of the shape longer than the noise passes through, and "
         "whatever joined pieces the pruning cut apart; where no noise is found the input passes "
         "through unchanged; 'off': the pruning as it is; 'preset': the preset's (default: on; "
         "thesis: off)",
