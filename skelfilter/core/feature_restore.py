@@ -179,7 +179,7 @@ def connections(stage_set, result, width, most=8):
     sizes = np.bincount(kept.reshape(-1))[1:]
     order = np.argsort(-sizes)[:most] + 1
     gone = removed[box]
-    distance = {label: ndimage.distance_transform_edt(kept != label).astype(np.float32) for label in order}
+    distance = {label: distance_and_features(kept != label)[0] for label in order}
     bridges = np.zeros_like(gone)
     for i, a in enumerate(order[1:], 1):
         gaps = [(float((distance[a] + distance[b])[gone].min()), b) for b in order[:i]]
