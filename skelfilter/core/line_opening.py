@@ -9,10 +9,12 @@ the segment in any direction, goes. Along each direction the opening is the runs
 
 import numpy as np
 
+from skelfilter.core.neighbourhood import OFFSETS_26
 from skelfilter.runtime.compiled import njit
 
-# The 13 directions of the 26-neighbourhood, one of each opposite pair: axes, face and body diagonals.
-DIRECTIONS = np.array([d for d in np.ndindex(3, 3, 3) if tuple(c - 1 for c in d) > (0, 0, 0)], dtype=np.int64) - 1
+# The 13 directions of the 26-neighbourhood, one of each opposite pair (the offsets are listed in
+# lexicographic order, so the second half is the negation of the first): axes, face and body diagonals.
+DIRECTIONS = OFFSETS_26[len(OFFSETS_26) // 2:]
 
 
 def line_opening(volume, length, directions=DIRECTIONS):
