@@ -3,7 +3,8 @@
     python benchmarks/noise_coverage.py [--groups clean thesis segmentation] [--shapes NAME ...]
 
 Each case's mask is cropped and padded as `skelfilter.core.pipeline.denoise_volume` does, its
-skeleton pruned by the default's foreground stage, and the estimate
+skeleton pruned by the default's foreground stage (`pipeline.stage_at_noise_scale`: at t, and at t / 2
+and t / 4 where that keeps under a quarter of the shape and finds nothing), and the estimate
 (`skelfilter.core.noise_estimate.estimate_noise`) taken on what the pruning removed. Groups:
 
 - ``clean``: the 17 shapes of `shapes.SHAPES` voxelized on the grids of `CLEAN_GRIDS` (128-224
@@ -26,7 +27,6 @@ import shapes
 import volumes
 
 from skelfilter.core import noise_estimate, pipeline
-from skelfilter.core.stage import saliency_stage
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.mesh.voxelize import grid_for_bounds, voxelize_on_grid
 from skelfilter.runtime.progress import Progress
@@ -39,7 +39,7 @@ def estimate(mask):
     mask = mask[pipeline._crop(mask)]
     params, pad = pipeline._cubic_params(mask, pipeline.resolve_params())
     padded = np.pad(mask, pad)
-    stage = saliency_stage(padded, params, Progress(enabled=False))
+    stage = pipeline.stage_at_noise_scale(padded, params, Progress(enabled=False))
     return noise_estimate.estimate_noise(padded, stage.mask, params.resolution)
 
 

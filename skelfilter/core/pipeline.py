@@ -10,10 +10,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage
 
-from skelfilter.core import edt_filters, feature_restore, noise_estimate, surface_field, volume_fine_pass
+from skelfilter.core import edt_filters, feature_restore, noise_estimate, pruning_rules, surface_field, volume_fine_pass
 from skelfilter.core import spacing as voxel_spacing
 from skelfilter.core.neighbourhood import bounding_box
-from skelfilter.core.stage import saliency_stage
+from skelfilter.core.stage import pruned_stage, saliency_stage, skeleton_fields
 from skelfilter.errors import InputError, ParameterError, ResourceError
 from skelfilter.parameter_fields import build, limits_of
 from skelfilter.params import DenoiseParams, VolumeParams
@@ -24,6 +24,11 @@ from skelfilter.runtime.progress import Progress
 # Voxels of the input kept around the set's bounding box, with the foreground stage alone (the default):
 # more than the fine pass's widest Gaussian reaches (4 sigma); the rest of the grid is not looked at.
 CROP_MARGIN = 12
+# A pruning that keeps less of its set than this, and finds no noise on what it removed, was too coarse
+# for the shape (thin legs, a seat, a wing): every removed part stands taller than noise above the little
+# that is left. The stage then prunes its skeleton again at t divided by each of FINER_THRESHOLDS in turn.
+LEAST_KEPT = 0.25
+FINER_THRESHOLDS = (2, 4)
 
 
 @dataclass
@@ -53,7 +58,7 @@ def denoise_padded(volume, params, progress):
     current = volume
     if params.stages in ("both", "foreground"):
         with progress.stage("foreground"):
-            stage = saliency_stage(current, params, progress)
+            stage = stage_at_noise_scale(current, params, progress)
             if params.keep_features == "on":
                 result.noise["foreground"] = keep_features(current, stage, params, "bumps", progress)
         result.stages["foreground"] = stage
@@ -73,7 +78,7 @@ def denoise_padded(volume, params, progress):
         background = ~current
         _fill_outside(background, (slice(1, -1),) * 3, False)
         with progress.stage("background"):
-            stage = saliency_stage(background, params, progress)
+            stage = stage_at_noise_scale(background, params, progress)
             if params.keep_features == "on":
                 result.noise["background"] = keep_features(background, stage, params, "dents", progress)
         del background
@@ -106,6 +111,37 @@ def denoise_padded(volume, params, progress):
     result.mask = current
     result.field = field
     return result
+
+
+def stage_at_noise_scale(stage_set, params, progress):
+    """One stage on ``stage_set`` (`stage.saliency_stage`), its skeleton pruned at finer thresholds
+    where the pruning at t leaves too little to measure noise against.
+
+    With keep_features on and nothing given that prunes as told (`DenoiseParams.prunes_whatever_found`),
+    a pruning that keeps under `LEAST_KEPT` of the set and finds no noise on what it removed
+    (`noise_estimate.estimate_noise`) is done again on the same skeleton and importance at t / 2, then
+    t / 4 (`FINER_THRESHOLDS`). On a chair or a stool the pruning at t keeps a few percent (the seat's
+    core): every leg and slat then stands higher than noise above it, none of the bumps on them is
+    counted, and the input passed through whole with its noise. The finer pruning keeps the legs' and
+    seat's cores, so the bumps on them are measured and taken off; a clean thin shape finds no noise at
+    the finer thresholds either and passes through as before.
+    """
+    if params.prunes_whatever_found:
+        return saliency_stage(stage_set, params, progress)
+    fields = skeleton_fields(stage_set, params, progress)
+    stage = pruned_stage(stage_set, fields.copy(), params, progress)
+    size, threshold, cap = np.count_nonzero(stage_set), params.threshold_voxels, pruning_rules.search_cap(params)
+    for divisor in FINER_THRESHOLDS:
+        kept = np.count_nonzero(stage.mask)
+        if kept >= LEAST_KEPT * size or noise_estimate.estimate_noise(stage_set, stage.mask, params.resolution).found:
+            break
+        progress.note(f"the pruning at t = {threshold:g} voxels kept {kept / size:.0%} of the set and found no "
+                      f"noise on what it removed: pruned again at t / {divisor}")
+        threshold = params.threshold_voxels / divisor
+        # the importance was searched to the cap of t: the finer pruning reads it as it is
+        finer = params.with_(threshold=threshold, threshold_relative=None, geodesic_cap=cap)
+        stage = pruned_stage(stage_set, fields.copy(), finer, progress)
+    return stage
 
 
 def keep_features(stage_set, stage, params, side, progress):
@@ -305,7 +341,9 @@ def _fine_pass_then_stages(cubic, params, progress):
     The fine pass is for noise below the skeleton's scale. Where the stages still find noise at the
     skeleton's scale after it, the noise is bumps the fine pass would have merged (it fills the
     valleys between them, and merged bumps are kept): the fine pass is undone and the stages run on
-    the input as it was. Stages that prune whatever they find (`DenoiseParams.prunes_whatever_found`)
+    the input as it was. Where they find nothing on the input (the noise stood on thin parts, which
+    the pruning took whole), the result after the fine pass is kept: the input would pass through
+    with all its noise. Stages that prune whatever they find (`DenoiseParams.prunes_whatever_found`)
     run on the input directly.
     """
     _cubic_params(cubic, params)  # too large a grid is refused before the fine pass runs
@@ -322,6 +360,13 @@ def _fine_pass_then_stages(cubic, params, progress):
                 result.fine_noise = fine
                 return result, smoothed
             progress.note("noise at the skeleton's scale: the fine pass is undone, the stages run on the input")
+            on_input = _denoise_cubic(cubic, params, progress)
+            if not passes_through(params, on_input):
+                return on_input, cubic
+            # passed through, the input would keep all its noise
+            progress.note("no noise at the skeleton's scale on the input: the result after the fine pass is kept")
+            result.fine_noise = fine
+            return result, smoothed
     return _denoise_cubic(cubic, params, progress), cubic
 
 
