@@ -26,7 +26,7 @@ import quality
 import shapes
 import volumes
 
-from skelfilter.core import noise_estimate, pipeline
+from skelfilter.core import pipeline
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.mesh.voxelize import grid_for_bounds, voxelize_on_grid
 from skelfilter.runtime.progress import Progress
@@ -39,8 +39,7 @@ def estimate(mask):
     mask = mask[pipeline._crop(mask)]
     params, pad = pipeline._cubic_params(mask, pipeline.resolve_params())
     padded = np.pad(mask, pad)
-    stage = pipeline.stage_at_noise_scale(padded, params, Progress(enabled=False))
-    return noise_estimate.estimate_noise(padded, stage.mask, params.resolution)
+    return pipeline.stage_at_noise_scale(padded, params, "bumps", Progress(enabled=False))[1]
 
 
 def cases(group, names):

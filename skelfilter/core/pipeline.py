@@ -58,9 +58,9 @@ def denoise_padded(volume, params, progress):
     current = volume
     if params.stages in ("both", "foreground"):
         with progress.stage("foreground"):
-            stage = stage_at_noise_scale(current, params, progress)
+            stage, estimate = stage_at_noise_scale(current, params, "bumps", progress)
             if params.keep_features == "on":
-                result.noise["foreground"] = keep_features(current, stage, params, "bumps", progress)
+                result.noise["foreground"] = keep_features(current, stage, params, "bumps", progress, estimate)
         result.stages["foreground"] = stage
         current = stage.mask
         field = stage.field
@@ -78,9 +78,9 @@ def denoise_padded(volume, params, progress):
         background = ~current
         _fill_outside(background, (slice(1, -1),) * 3, False)
         with progress.stage("background"):
-            stage = stage_at_noise_scale(background, params, progress)
+            stage, estimate = stage_at_noise_scale(background, params, "dents", progress)
             if params.keep_features == "on":
-                result.noise["background"] = keep_features(background, stage, params, "dents", progress)
+                result.noise["background"] = keep_features(background, stage, params, "dents", progress, estimate)
         del background
         result.stages["background"] = stage
         # Filling dents never reaches past the shape's bounding box; outside
@@ -113,9 +113,11 @@ def denoise_padded(volume, params, progress):
     return result
 
 
-def stage_at_noise_scale(stage_set, params, progress):
+def stage_at_noise_scale(stage_set, params, side, progress):
     """One stage on ``stage_set`` (`stage.saliency_stage`), its skeleton pruned at finer thresholds
-    where the pruning at t leaves too little to measure noise against.
+    where the pruning at t leaves too little to measure noise against; returns the `StageResult` and
+    the noise estimate of its pruning (``side``: ``"bumps"`` or ``"dents"``; None where the stage
+    prunes as told).
 
     With keep_features on and nothing given that prunes as told (`DenoiseParams.prunes_whatever_found`),
     a pruning that keeps under `LEAST_KEPT` of the set and finds no noise on what it removed
@@ -127,13 +129,18 @@ def stage_at_noise_scale(stage_set, params, progress):
     the finer thresholds either and passes through as before.
     """
     if params.prunes_whatever_found:
-        return saliency_stage(stage_set, params, progress)
+        return saliency_stage(stage_set, params, progress), None
+    def measured(stage):
+        with progress.step("noise estimate"):
+            return noise_estimate.estimate_noise(stage_set, stage.mask, params.resolution, side)
+
     fields = skeleton_fields(stage_set, params, progress)
     stage = pruned_stage(stage_set, fields.copy(), params, progress)
+    estimate = measured(stage)
     size, threshold, cap = np.count_nonzero(stage_set), params.threshold_voxels, pruning_rules.search_cap(params)
     for divisor in FINER_THRESHOLDS:
         kept = np.count_nonzero(stage.mask)
-        if kept >= LEAST_KEPT * size or noise_estimate.estimate_noise(stage_set, stage.mask, params.resolution).found:
+        if kept >= LEAST_KEPT * size or estimate.found:
             break
         progress.note(f"the pruning at t = {threshold:g} voxels kept {kept / size:.0%} of the set and found no "
                       f"noise on what it removed: pruned again at t / {divisor}")
@@ -141,24 +148,26 @@ def stage_at_noise_scale(stage_set, params, progress):
         # the importance was searched to the cap of t: the finer pruning reads it as it is
         finer = params.with_(threshold=threshold, threshold_relative=None, geodesic_cap=cap)
         stage = pruned_stage(stage_set, fields.copy(), finer, progress)
-    return stage
+        estimate = measured(stage)
+    return stage, estimate
 
 
-def keep_features(stage_set, stage, params, side, progress):
+def keep_features(stage_set, stage, params, side, progress, estimate=None):
     """Give back what the pruning of ``stage_set`` removed that is no noise, in ``stage`` (in place).
 
-    The noise is measured on what the pruning removed (`noise_estimate.estimate_noise`), unless
-    ``params.noise_height`` gives its height. Removed parts standing higher than the noise (with
-    `feature_restore.MARGIN`) come back (`feature_restore.features_by_extent`) but for the noise
-    on them, which no straight run of the shape longer than the noise passes through
-    (`feature_restore.along_lines`); and so do whatever joined pieces that the pruning cut apart
-    (`feature_restore.connections`) and the skin of edges away from the noise
-    (`feature_restore.skin_far_from_noise`). Where no noise is found and neither the noise height nor
-    the threshold was given, everything comes back: the input passes through. Returns the
-    `noise_estimate.NoiseEstimate`, also told through ``progress``.
+    The noise is measured on what the pruning removed (`noise_estimate.estimate_noise`; ``estimate``
+    where the caller measured it already), unless ``params.noise_height`` gives its height. Removed
+    parts standing higher than the noise (with `feature_restore.MARGIN`) come back
+    (`feature_restore.features_by_extent`) but for the noise on them, which no straight run of the
+    shape longer than the noise passes through (`feature_restore.along_lines`); and so do whatever
+    joined pieces that the pruning cut apart (`feature_restore.connections`) and the skin of edges
+    away from the noise (`feature_restore.skin_far_from_noise`). Where no noise is found and neither
+    the noise height nor the threshold was given, everything comes back: the input passes through.
+    Returns the `noise_estimate.NoiseEstimate`, also told through ``progress``.
     """
-    with progress.step("noise estimate"):
-        estimate = noise_estimate.estimate_noise(stage_set, stage.mask, params.resolution, side)
+    if estimate is None:
+        with progress.step("noise estimate"):
+            estimate = noise_estimate.estimate_noise(stage_set, stage.mask, params.resolution, side)
     height = _restored_height(params, estimate)
     given = f"; removed parts standing over {height:g} voxels (the noise height given) come back" \
         if params.noise_height is not None else ""
@@ -356,15 +365,13 @@ def _fine_pass_then_stages(cubic, params, progress):
         progress.note(fine.describe())
         if smoothed is not cubic:
             result = _denoise_cubic(smoothed, params, progress)
-            if passes_through(params, result):
-                result.fine_noise = fine
-                return result, smoothed
-            progress.note("noise at the skeleton's scale: the fine pass is undone, the stages run on the input")
-            on_input = _denoise_cubic(cubic, params, progress)
-            if not passes_through(params, on_input):
-                return on_input, cubic
-            # passed through, the input would keep all its noise
-            progress.note("no noise at the skeleton's scale on the input: the result after the fine pass is kept")
+            if not passes_through(params, result):
+                progress.note("noise at the skeleton's scale: the fine pass is undone, the stages run on the input")
+                on_input = _denoise_cubic(cubic, params, progress)
+                if not passes_through(params, on_input):
+                    return on_input, cubic
+                # passed through, the input would keep all its noise
+                progress.note("no noise at the skeleton's scale on the input: the result after the fine pass is kept")
             result.fine_noise = fine
             return result, smoothed
     return _denoise_cubic(cubic, params, progress), cubic
