@@ -84,6 +84,7 @@ def test_cli_flags_and_meshset_signatures_come_from_the_descriptions():
         names = {p.name for p in d.parameters}
         assert names <= _flags(sub[d.command])
         assert _flags(sub[d.command]) - names <= {"save_skeleton", "progress", "close", "points", "label", "iso",
+                                                  "all_labels",
                                                   "spacing", "help_all", "preview"}
         assert _flags(export[d.command]) == names
         signature = inspect.signature(getattr(meshset, d.python_name))

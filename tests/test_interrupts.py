@@ -24,7 +24,7 @@ STEPS = [(step, "auto") for step in (
     "voxelize", "solid check", "foreground/distance transform", "foreground/skeleton",
     "foreground/importance", "foreground/derivative measure", "foreground/pruning", "foreground/EDT filter",
     "foreground/reconstruction", "foreground/noise estimate", "foreground/features kept", "specks", "needles")]
-STEPS += [("input surface", "closed"), ("marching cubes", "closed"), ("vertices moved", "input"),
+STEPS += [("input surface", "closed"), ("smooth surface", "closed"), ("vertices moved", "input"),
           ("fine pass", "input")]
 
 

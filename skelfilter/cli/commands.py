@@ -38,7 +38,7 @@ def _denoise(args):
             raise InputError(f"--close contradicts --output-mesh {args.output_mesh}")
         args.output_mesh = "closed"
     params = _params(SKELETON_SALIENCY_DENOISE, args)
-    volume = VolumeParams(label=args.label, iso=args.iso, spacing=args.spacing)
+    volume = VolumeParams(label=args.label, iso=args.iso, spacing=args.spacing, all_labels=bool(args.all_labels))
     progress = Progress(enabled=args.progress, shield=True)
     preview = None
     if args.preview:
@@ -75,7 +75,8 @@ def _batch(args):
 
     params = {p.name: getattr(args, p.name) for p in SKELETON_SALIENCY_DENOISE.parameters
               if getattr(args, p.name) is not None}
-    params.update({k: getattr(args, k) for k in ("label", "iso", "spacing") if getattr(args, k) is not None})
+    params.update({k: getattr(args, k) for k in ("label", "all_labels", "iso", "spacing")
+                   if getattr(args, k) is not None})
     client = None
     if args.scheduler:
         Client = need("distributed", "--scheduler").Client

@@ -167,6 +167,7 @@ def _add_volume_flags(parser):
     described = {f.name: f.metadata for f in dataclasses.fields(VolumeParams)}
     choice = group.add_mutually_exclusive_group()
     choice.add_argument("--label", type=int, metavar="N", help=described["label"]["help"])
+    choice.add_argument("--all-labels", action="store_true", default=None, help=described["all_labels"]["help"])
     choice.add_argument("--iso", type=float, metavar="LEVEL", help=described["iso"]["help"])
     group.add_argument("--spacing", type=float, nargs=3, metavar=("X", "Y", "Z"), help=described["spacing"]["help"])
 

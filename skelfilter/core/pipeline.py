@@ -310,7 +310,7 @@ def _denoise_volume(volume, params, progress, spacing, affine, overrides):
     else:
         cubic = volume
         input_field = None
-    result, stages_input = _fine_pass_then_stages(cubic, params, progress)
+    result, stages_input = _fine_pass_then_stages(cubic, params, progress, volume if resample else None)
     if keep:
         with progress.step("input surface"):
             if input_field is None or stages_input is not cubic:
@@ -343,9 +343,10 @@ def _crop(volume, spacing=None):
     return tuple(aligned)
 
 
-def _fine_pass_then_stages(cubic, params, progress):
-    """The volume fine pass (`volume_fine_pass.fine_pass`), then the stages on its result: the
-    DenoiseResult and the volume the stages ran on.
+def _fine_pass_then_stages(cubic, params, progress, sampled=None):
+    """The volume fine pass (`volume_fine_pass.fine_pass`; ``sampled``: the volume on its own grid where
+    ``cubic`` is its resampling), then the stages on its result: the DenoiseResult and the volume the
+    stages ran on.
 
     The fine pass is for noise below the skeleton's scale. Where the stages still find noise at the
     skeleton's scale after it, the noise is bumps the fine pass would have merged (it fills the
@@ -361,7 +362,7 @@ def _fine_pass_then_stages(cubic, params, progress):
                       "(keep_features off, or the threshold or the noise height given)")
     elif params.fine_pass != "off":
         with progress.step("fine pass"):
-            smoothed, fine = volume_fine_pass.fine_pass(cubic)
+            smoothed, fine = volume_fine_pass.fine_pass(cubic, sampled)
         progress.note(fine.describe())
         if smoothed is not cubic:
             result = _denoise_cubic(smoothed, params, progress)

@@ -256,6 +256,27 @@ def save_mesh(mesh, path, protect=()):
     atomic_write(path, lambda tmp: mesh.export(tmp, file_type=ext, **options), protect)
 
 
+def save_parts(meshes, path, protect=()):
+    """Write named meshes as one file of named parts (OBJ objects, GLB nodes), atomically.
+
+    Parameters
+    ----------
+    meshes : dict
+        Name -> ``trimesh.Trimesh``.
+    path : str
+        An .obj or .glb file.
+    """
+    ext = _extension(path)
+    if ext not in ("obj", "glb"):
+        raise InputError(f"{path}: named parts need an .obj or a .glb file")
+    for mesh in meshes.values():
+        check_mesh_output(mesh, path)
+    scene = trimesh.Scene()
+    for name, mesh in meshes.items():
+        scene.add_geometry(mesh, geom_name=name, node_name=name)
+    atomic_write(path, lambda tmp: scene.export(tmp, file_type=ext), protect)
+
+
 _MTL_PLACEHOLDER, _MATERIAL_PLACEHOLDER = "skelfilter-mtl-3f9c", "skelfilter_material_3f9c"
 
 

@@ -23,7 +23,7 @@ from skelfilter.params.volume_input import SPACING_LIMITS
 from skelfilter.runtime import native_output
 from skelfilter.runtime.extras import MissingExtra
 
-__all__ = ["Volume", "load_volume", "merge_label", "save_volume", "select_mask"]
+__all__ = ["Volume", "label_values", "load_volume", "merge_label", "save_volume", "select_mask"]
 
 
 def load_volume(path, spacing=None):
@@ -135,6 +135,25 @@ def select_mask(data, label=None, iso=None):
     if not mask.any():
         raise InputError(f"the volume is empty: {empty}")
     return mask
+
+
+def label_values(data):
+    """The labels of a label map, 0 (the background) left out.
+
+    Raises
+    ------
+    InputError
+        Data that is not whole numbers, or no label.
+    """
+    if not (np.issubdtype(data.dtype, np.integer) or data.dtype == bool):
+        values = data[np.isfinite(data)] if np.issubdtype(data.dtype, np.floating) else data
+        if values.size < data.size or not np.array_equal(values, np.round(values)):
+            raise InputError(f"volume data of type {data.dtype} with fractions or NaN is not a label map: "
+                             "`all_labels` needs whole numbers")
+    labels = [v.item() for v in np.unique(data) if v != 0]
+    if not labels:
+        raise InputError("the volume is empty: no voxel is labelled")
+    return labels
 
 
 def merge_label(labels, before, after, label):

@@ -11,6 +11,7 @@ before anything is read or computed.
 
 
 import numpy as np
+import trimesh
 
 from skelfilter.core import pipeline
 from skelfilter.errors import InputError
@@ -22,6 +23,8 @@ from skelfilter.runtime.progress import Progress
 
 # What each kind of input can become.
 OUTPUTS = {"mesh": ("mesh",), "volume": ("volume", "mesh"), "points": ("mesh", "points")}
+# Mesh formats that hold named parts (every label of a label map).
+PART_FORMATS = ("obj", "glb")
 
 
 def check_paths(input_path, output_path, save_skeleton=None, points=False):
@@ -106,6 +109,8 @@ def denoise_file(input_path, output_path, params, volume_params=None, save_skele
 
 
 def _denoise_volume_file(input_path, output_path, kind_out, params, volume_params, progress, preview=None):
+    if volume_params.all_labels:
+        return _denoise_label_map_file(input_path, output_path, kind_out, params, volume_params, progress, preview)
     volume = volume_files.load_volume(input_path, volume_params.spacing)
     mask = volume_files.select_mask(volume.data, volume_params.label, volume_params.iso)
     result = pipeline.denoise_volume(mask, params, progress, spacing=volume.spacing)
@@ -118,22 +123,61 @@ def _denoise_volume_file(input_path, output_path, kind_out, params, volume_param
                 if volume_params.label is not None else result.mask)
         volume_files.save_volume(output_path, volume, data, protect=[input_path])
         if preview is not None:
-            _preview_volume(preview, mask, result, volume.affine, progress)
+            _preview_volume(preview, mask, result, volume.affine, params, progress)
         return summary
-    with progress.step("marching cubes"):
-        mesh = marching_cubes.field_to_world_mesh(result.field, volume.affine)
+    mesh = _volume_mesh(result, volume.affine, params, progress)
     mesh_files.save_mesh(mesh, output_path, protect=[input_path])
     if preview is not None:
-        _preview_volume(preview, mask, result, volume.affine, progress, mesh)
+        _preview_volume(preview, mask, result, volume.affine, params, progress, mesh)
     return {**summary, "vertices": len(mesh.vertices), "faces": len(mesh.faces)}
 
 
-def _preview_volume(preview, mask, result, affine, progress, output_mesh=None):
-    """``preview`` of a volume: the input's and the output's voxels as marching-cubes surfaces."""
+def _denoise_label_map_file(input_path, output_path, kind_out, params, volume_params, progress, preview=None):
+    """Every label of a label map, each denoised on its own (`volume_files.merge_label` in turn); a mesh
+    output is one named part per label (``label_N``), their surfaces sharing their boundaries
+    (`marching_cubes.labels_to_world_meshes`)."""
+    if kind_out == "mesh" and formats.suffix(output_path) not in PART_FORMATS:
+        raise InputError(f"{output_path}: every label as a named part needs a {' or '.join(PART_FORMATS)} output")
+    volume = volume_files.load_volume(input_path, volume_params.spacing)
+    labels = volume_files.label_values(volume.data)
+    data, changed = volume.data, 0
+    for label in labels:
+        with progress.stage(f"label {label}"):
+            mask = volume.data == label
+            result = pipeline.denoise_volume(mask, params, progress, spacing=volume.spacing)
+        changed += result.voxels_changed
+        data = volume_files.merge_label(data, mask, result.mask, label)
+    summary = {"kind": "volume", "voxels_changed": changed}
+    if kind_out == "volume":
+        volume_files.save_volume(output_path, volume, data, protect=[input_path])
+        return summary
+    with progress.step("smooth surfaces"):
+        meshes = marching_cubes.labels_to_world_meshes(data, volume.affine,
+                                                       [v for v in labels if (data == v).any()])
+    mesh_files.save_parts({f"label_{label}": mesh for label, mesh in meshes.items()}, output_path,
+                          protect=[input_path])
+    if preview is not None:
+        before = marching_cubes.mask_to_world_mesh(volume.data != 0, volume.affine, smooth=False)
+        preview(before, trimesh.util.concatenate(list(meshes.values())))
+    return {**summary, "vertices": sum(len(m.vertices) for m in meshes.values()),
+            "faces": sum(len(m.faces) for m in meshes.values())}
+
+
+def _volume_mesh(result, affine, params, progress):
+    """The mesh of a denoised volume in world coordinates: with the surface 'smooth', the smooth surface
+    its voxels sample (`marching_cubes.mask_to_world_mesh`), else the marching cubes of its field."""
+    if params.surface == "plain":
+        with progress.step("marching cubes"):
+            return marching_cubes.field_to_world_mesh(result.field, affine)
+    with progress.step("smooth surface"):
+        return marching_cubes.mask_to_world_mesh(result.mask, affine)
+
+
+def _preview_volume(preview, mask, result, affine, params, progress, output_mesh=None):
+    """``preview`` of a volume: the input's voxels (their plain marching cubes) and the output's surface."""
     with progress.step("preview surfaces"):
-        before = marching_cubes.field_to_world_mesh(mask.astype(np.float32) - 0.5, affine)
-        after = output_mesh if output_mesh is not None else \
-            marching_cubes.field_to_world_mesh(result.field, affine)
+        before = marching_cubes.mask_to_world_mesh(mask, affine, smooth=False)
+    after = output_mesh if output_mesh is not None else _volume_mesh(result, affine, params, progress)
     preview(before, after)
 
 

@@ -1,11 +1,21 @@
-"""From volumes back to meshes: marching cubes at sub-voxel precision."""
+"""From volumes back to meshes: marching cubes at sub-voxel precision, of the field smoothed under
+the voxels' constraint (`skelfilter.core.surface_field.smooth_constrained`) where the surface is made
+from voxels: smooth, and enclosing exactly the voxels it is of."""
 
 import numpy as np
 import trimesh
 from skimage import measure
 
+from skelfilter.core import spacing as voxel_spacing
 from skelfilter.core.neighbourhood import bounding_box, unravel
-from skelfilter.core.surface_field import mask_field, put_distances, unchanged_band
+from skelfilter.core.surface_field import (
+    SMOOTHING_ROUNDS,
+    SMOOTHING_SIGMA,
+    mask_field,
+    put_distances,
+    smooth_constrained,
+    unchanged_band,
+)
 from skelfilter.mesh.closest_points import MeshSurface
 from skelfilter.mesh.voxelize import Grid
 
@@ -62,6 +72,108 @@ def field_to_world_mesh(field, affine):
     return mesh
 
 
+# Voxels around a mask's bounding box that the smoothing reads: past them a value moves its surface
+# by less than a thousandth of a voxel.
+SMOOTHING_REACH = int(np.ceil(4 * SMOOTHING_SIGMA * np.sqrt(2 * SMOOTHING_ROUNDS))) + 2
+
+
+def smooth_field_to_mesh(field, mask, grid, fixed=None):
+    """`field_to_mesh` of ``field`` smoothed under ``mask``'s constraint (`smooth_constrained`), the
+    values of the ``fixed`` voxels (flat indices) held: the closed mesh of the voxel stage, whose
+    surface is the input's own where nothing changed and smooth elsewhere, and encloses exactly
+    ``mask``'s voxels."""
+    held = None
+    if fixed is not None and len(fixed):
+        held = np.zeros(field.shape, dtype=bool)
+        held.reshape(-1)[fixed] = True
+    return field_to_mesh(smooth_constrained(field, mask, held), grid)
+
+
+def mask_to_world_mesh(mask, affine, smooth=True):
+    """The surface of a voxel mask in the world coordinates of the 4x4 ``affine`` (voxel index to
+    world): closed, outward, enclosing exactly the mask's voxel centres.
+
+    ``smooth``: the mask's signed distance (world units, the affine's spacing: thick slices are
+    ramps, not steps) smoothed under the voxels' constraint (`smooth_constrained`): the smooth surface
+    that a clean mask samples, staircase and all; else its plain marching cubes (half-way between
+    centres).
+    """
+    mask = np.asarray(mask, dtype=bool)
+    box = bounding_box(mask, margin=SMOOTHING_REACH)
+    if box is None:
+        raise ValueError("the mask is empty: nothing to mesh")
+    affine = np.asarray(affine, dtype=float)
+    spacing = np.linalg.norm(affine[:3, :3], axis=0)
+    # outside beyond the array's faces too, so the surface closes there
+    part = np.pad(mask[box], SMOOTHING_REACH)
+    shift = np.eye(4)
+    shift[:3, 3] = [b.start - SMOOTHING_REACH for b in box]
+    field = voxel_spacing.signed_distance(part, spacing)
+    if smooth:
+        field = smooth_constrained(field, part, unit=float(spacing.min()))
+    return field_to_world_mesh(field, affine @ shift)
+
+
+def labels_to_world_meshes(labels, affine, which=None):
+    """The surfaces of a label map's labels, each as `mask_to_world_mesh`'s, sharing their boundaries.
+
+    Each label ``L``'s field is its smoothed signed distance ``s_L`` (`smooth_constrained`, the
+    background's too) less the largest of the other labels' there, ``s_L - max_{M != L} s_M``: where
+    two labels touch, their fields are each other's negative, so their surfaces are one (no gap, no
+    overlap), and each still encloses exactly its own voxels' centres (``s_L > 0 > s_M`` there).
+
+    Parameters
+    ----------
+    labels : int ndarray
+        The label map; 0 is the background.
+    affine : (4, 4) array_like
+        Voxel index to world.
+    which : sequence of int, optional
+        The labels to mesh (default: every nonzero label present).
+
+    Returns
+    -------
+    dict
+        Label -> closed, outward `trimesh.Trimesh` in world coordinates.
+    """
+    labels = np.asarray(labels)
+    present = [int(v) for v in np.unique(labels) if v != 0]
+    which = present if which is None else [int(v) for v in which]
+    missing = sorted(set(which) - set(present))
+    if missing:
+        raise ValueError(f"labels {missing} select no voxel")
+    affine = np.asarray(affine, dtype=float)
+    spacing = np.linalg.norm(affine[:3, :3], axis=0)
+    reach = SMOOTHING_REACH
+    padded = np.pad(labels, reach)  # background beyond the array's faces
+    shift = np.eye(4)
+    shift[:3, 3] = -reach
+    fields = {}  # label -> (box, smoothed signed distance over it); the background's box is the whole map
+    for value in [0, *present]:
+        mask = padded == value
+        box = bounding_box(mask, margin=reach)
+        part = mask[box]
+        fields[value] = (box, smooth_constrained(voxel_spacing.signed_distance(part, spacing), part,
+                                                 unit=float(spacing.min())))
+    meshes = {}
+    for value in which:
+        box, own = fields[value]
+        others = np.full(own.shape, -np.inf, dtype=np.float32)
+        for other, (other_box, field) in fields.items():
+            if other == value:
+                continue
+            overlap = tuple(slice(max(a.start, b.start), min(a.stop, b.stop)) for a, b in zip(box, other_box))
+            if any(o.start >= o.stop for o in overlap):
+                continue
+            mine = tuple(slice(o.start - a.start, o.stop - a.start) for o, a in zip(overlap, box))
+            theirs = tuple(slice(o.start - b.start, o.stop - b.start) for o, b in zip(overlap, other_box))
+            np.maximum(others[mine], field[theirs], out=others[mine])
+        local = np.eye(4)
+        local[:3, 3] = [b.start for b in box]
+        meshes[value] = field_to_world_mesh(own - others, affine @ shift @ local)
+    return meshes
+
+
 def keep_input_surface(field, mask, occupancy, mesh, grid, reach=2):
     """Put the input mesh's own surface into ``field`` wherever the denoising changed nothing, in place.
 
@@ -84,12 +196,18 @@ def keep_input_surface(field, mask, occupancy, mesh, grid, reach=2):
     grid : voxelize.Grid
     reach : int, optional
         Voxels kept clear of every change.
+
+    Returns
+    -------
+    int ndarray
+        The flat indices of the voxels given the input's distance.
     """
     band = unchanged_band(field, mask, occupancy, reach)
     if band.size == 0:
-        return
+        return band
     points = grid.to_world(unravel(band, field.shape)).astype(np.float32)
     put_distances(field, mask, band, MeshSurface(mesh).distance(points) / grid.pitch)
+    return band
 
 
 def mask_to_mesh(mask, grid):

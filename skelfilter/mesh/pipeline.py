@@ -102,10 +102,13 @@ def _denoise_unit(mesh, params, progress):
         check_grid_fits(_grid(mesh, params.resolution, params.padding_voxels).shape, padding=params.padding_voxels,
                         padding_from=padding_from(params), faces=len(mesh.faces))
     lattice = voxelize.voxel_lattice(mesh)
-    roughness = None  # a mesh not made of voxels that may come back as itself: its output_choice.Roughness
-    if lattice is None and params.output_mesh in ("auto", "input"):
+    roughness = None  # a mesh not made of voxels: its output_choice.Roughness
+    if lattice is None and (params.output_mesh in ("auto", "input") or params.fine_pass != "off"):
         with progress.step("roughness"):
             roughness = output_choice.measure(mesh)
+    if params.output_mesh == "closed" and roughness is not None and params.fine_pass != "off" and (
+            roughness.noisy or params.fine_pass == "on"):
+        mesh = _smoothed_first(mesh, params, roughness, progress)
     routed = params.output_mesh == "auto" and not asked and roughness is not None
     if routed and not roughness.noisy and params.fine_pass != "on":
         return _as_it_was(mesh, params, roughness, given, progress)
@@ -168,14 +171,27 @@ def _denoise_unit(mesh, params, progress):
             why = "noise at the skeleton scale removed"
         progress.note(f"output: {'a new closed mesh' if output == 'closed' else 'the input mesh'} ({why})")
     if output == "closed":
+        kept = None
         if params.unchanged_surface == "input":
             with progress.step("input surface"):
-                marching_cubes.keep_input_surface(result.field, result.mask, occupancy, mesh, grid)
+                kept = marching_cubes.keep_input_surface(result.field, result.mask, occupancy, mesh, grid)
         del occupancy
-        with progress.step("marching cubes"):
-            return marching_cubes.field_to_mesh(result.field, grid), None, result, grid
+        if params.surface == "plain":
+            with progress.step("marching cubes"):
+                return marching_cubes.field_to_mesh(result.field, grid), None, result, grid
+        with progress.step("smooth surface"):
+            return marching_cubes.smooth_field_to_mesh(result.field, result.mask, grid, kept), None, result, grid
     vertices = _kept_vertices(mesh, (result, occupancy) if voxel_moves else None, params, grid, progress, roughness)
     return None, vertices, result, grid
+
+
+def _smoothed_first(mesh, params, roughness, progress):
+    """``mesh`` smoothed by the fine pass before it is voxelized for a new closed mesh: the closed
+    mesh keeps the input's own surface wherever the voxel stage changes nothing
+    (`marching_cubes.keep_input_surface`), so fine noise left on the input stays on it."""
+    progress.note(f"{roughness.describe()}: smoothed by the fine pass before the voxel stage")
+    vertices = _kept_vertices(mesh, None, params.with_(fine_pass="on"), None, progress, roughness)
+    return trimesh.Trimesh(vertices, np.asarray(mesh.faces), process=False)
 
 
 def _as_it_was(mesh, params, roughness, given, progress):

@@ -209,6 +209,17 @@ class DenoiseParams:
         "reconstruction)",
         choices=("preset", "input", "reconstruction"),
     )
+    surface: str = _p(
+        "preset",
+        "Surface",
+        "the output surface wherever it is made from voxels (a new closed mesh, a volume's or a point "
+        "cloud's mesh): 'smooth': the voxels' field smoothed under their constraint (every set voxel's "
+        "centre stays inside, every other outside): the smooth surface the voxels sample, without the "
+        "staircase of thick slices or of the grid, enclosing exactly the output's voxels; 'plain': its "
+        "marching cubes as it is (the thesis' union of balls, a mask's staircase); 'preset': the "
+        "preset's (default: smooth; thesis: plain)",
+        choices=("preset", "smooth", "plain"),
+    )
     edt_filter: str = _p(
         "minify",
         "EDT filter",

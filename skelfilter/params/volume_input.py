@@ -21,6 +21,7 @@ class VolumeParams:
 
     label: int | None = _p(None, "Label", "denoise the voxels of this label of a label map; the other labels "
                            "stay as they are", limits=(-2**63, 2**63 - 1))
+    all_labels: bool = _p(False, "All labels", "every label at once, a part each (.obj, .glb)")
     iso: float | None = _p(None, "Iso level", "denoise the voxels at or above this grey level of an image",
                            "grey level", limits=(-1e308, 1e308))
     spacing: tuple | None = _p(None, "Spacing", "voxel size along the three axes, replacing the file's (a .npy "
@@ -28,8 +29,8 @@ class VolumeParams:
 
     def __post_init__(self):
         check_limits(self)
-        if self.label is not None and self.iso is not None:
-            raise ParameterError("give label or iso, not both")
+        if sum((self.label is not None, self.iso is not None, bool(self.all_labels))) > 1:
+            raise ParameterError("give one of label, all_labels and iso")
         if self.spacing is not None:
             spacing = tuple(self.spacing)
             low, high = SPACING_LIMITS
