@@ -285,6 +285,41 @@ def score(mesh, solid, truth):
     return row
 
 
+def interface_gaps(labels, affine, meshes):
+    """Where two labels' voxels touch: along each grid edge from a voxel of label A to a 6-neighbour of
+    label B, the distance between where A's surface and B's surface cross it (world units; 0 where
+    they share the boundary). Returns ``{(A, B): distances}``."""
+    import open3d as o3d
+
+    scenes = {}
+    for label, mesh in meshes.items():
+        scene = o3d.t.geometry.RaycastingScene()
+        scene.add_triangles(o3d.core.Tensor(np.asarray(mesh.vertices, dtype=np.float32)),
+                            o3d.core.Tensor(np.asarray(mesh.faces, dtype=np.uint32)))
+        scenes[label] = scene
+    gaps = {}
+    for axis in range(3):
+        lo = labels[tuple(slice(None, -1) if a == axis else slice(None) for a in range(3))]
+        hi = labels[tuple(slice(1, None) if a == axis else slice(None) for a in range(3))]
+        touch = (lo != hi) & (lo != 0) & (hi != 0) & np.isin(lo, list(meshes)) & np.isin(hi, list(meshes))
+        start = np.argwhere(touch).astype(float)
+        step = affine[:3, axis]
+        origins = start @ affine[:3, :3].T + affine[:3, 3]
+        rays = o3d.core.Tensor(np.hstack([origins, np.tile(step, (len(origins), 1))]).astype(np.float32))
+        a_labels, b_labels = lo[touch], hi[touch]
+        hits = {}
+        for label in np.unique(np.concatenate([a_labels, b_labels])):
+            hits[int(label)] = scenes[int(label)].cast_rays(rays)["t_hit"].numpy()
+        # t in units of the step (one voxel along the axis): the first crossing from the lower voxel
+        t_a = np.choose(np.searchsorted(sorted(hits), a_labels), [hits[k] for k in sorted(hits)])
+        t_b = np.choose(np.searchsorted(sorted(hits), b_labels), [hits[k] for k in sorted(hits)])
+        distance = np.abs(t_a - t_b) * np.linalg.norm(step)
+        for pair in {tuple(sorted((int(a), int(b)))) for a, b in zip(a_labels, b_labels)}:
+            sel = ((a_labels == pair[0]) & (b_labels == pair[1])) | ((a_labels == pair[1]) & (b_labels == pair[0]))
+            gaps.setdefault(pair, []).append(distance[sel])
+    return {pair: np.concatenate(parts) for pair, parts in gaps.items()}
+
+
 def run_case(solid_name, spacing_name, noisy, methods, seed):
     solid = SOLIDS[solid_name]()
     mask, affine = label_map(solid, SPACINGS[spacing_name], seed)

@@ -9,6 +9,10 @@ class InputError(SkelfilterError):
     """The input mesh or volume cannot be used (unreadable, empty, NaN coordinates)."""
 
 
+class OpenSurfaceError(InputError):
+    """A new closed mesh was asked of a surface that encloses no solid (an open scan)."""
+
+
 class ParameterError(SkelfilterError, ValueError):
     """A parameter is out of range or of the wrong kind."""
 

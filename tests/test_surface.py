@@ -113,3 +113,26 @@ def test_the_surface_flag_takes_effect_on_a_volume_s_mesh(tmp_path, surface):
     normal_error = surfaces.score(written, surfaces.SOLIDS["ball"](),
                                   surfaces.true_surface_samples(surfaces.SOLIDS["ball"](), 3000))["normal_error"]
     assert (normal_error < 6) == (surface == "smooth")
+
+
+@pytest.mark.parametrize("spacing", [(1.0, 1.0, 2.0), (2.0, 1.0, 1.0)])
+def test_every_label_s_surface_encloses_its_voxels_and_neighbours_share_their_boundary(spacing):
+    from skelfilter.mesh.marching_cubes import labels_to_world_meshes
+
+    labels = np.zeros((36, 36, 28), np.uint8)
+    i, j, k = np.indices(labels.shape)
+    labels[(i - 13) ** 2 + (j - 18) ** 2 + (k - 14) ** 2 < 90] = 1
+    labels[((i - 23) ** 2 + (j - 18) ** 2 + (k - 14) ** 2 < 90) & (labels == 0)] = 2
+    labels[((i - 18) ** 2 + (j - 26) ** 2 + (k - 14) ** 2 < 55) & (labels == 0)] = 3
+    affine = np.diag([*spacing, 1.0])
+    meshes = labels_to_world_meshes(labels, affine)
+    ijk = np.indices(labels.shape).reshape(3, -1).T
+    centres = ijk @ affine[:3, :3].T
+    for label, mesh in meshes.items():
+        assert mesh.is_watertight and mesh.is_winding_consistent
+        assert np.array_equal(_inside(mesh, centres), labels.reshape(-1) == label)
+    gaps = surfaces.interface_gaps(labels, affine, meshes)
+    assert set(gaps) == {(1, 2), (1, 3), (2, 3)}
+    assert max(float(g.max()) for g in gaps.values()) < 1e-4
+    independent = {label: mask_to_world_mesh(labels == label, affine) for label in meshes}
+    assert max(float(g.max()) for g in surfaces.interface_gaps(labels, affine, independent).values()) > 0.5

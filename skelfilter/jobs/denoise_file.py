@@ -14,7 +14,7 @@ import numpy as np
 import trimesh
 
 from skelfilter.core import pipeline
-from skelfilter.errors import InputError
+from skelfilter.errors import InputError, OpenSurfaceError
 from skelfilter.io import formats, mesh_files, output_files, point_files, volume_files
 from skelfilter.mesh import marching_cubes, point_cloud
 from skelfilter.mesh import pipeline as mesh_pipeline
@@ -187,7 +187,11 @@ def _denoise_point_file(input_path, output_path, kind_out, params, progress, pre
     cloud = point_files.load_points(input_path)
     with progress.step("Poisson surface"):
         solid = point_cloud.points_to_mesh(cloud, input_path)
-    out, result, _ = mesh_pipeline.denoise_mesh_detailed(solid, params.with_(output_mesh="closed"), progress)
+    try:
+        out, result, _ = mesh_pipeline.denoise_mesh_detailed(solid, params.with_(output_mesh="closed"), progress)
+    except OpenSurfaceError:
+        raise InputError(f"{input_path}: the points' Poisson surface encloses no solid (a scan that does not go "
+                         "all round the object, or noise as thick as its thinnest parts)") from None
     summary = {"kind": "points", "voxels_changed": result.voxels_changed}
     if kind_out == "points":
         with progress.step("points moved"):

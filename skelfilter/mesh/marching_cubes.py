@@ -4,6 +4,7 @@ from voxels: smooth, and enclosing exactly the voxels it is of."""
 
 import numpy as np
 import trimesh
+from scipy import ndimage
 from skimage import measure
 
 from skelfilter.core import spacing as voxel_spacing
@@ -82,11 +83,15 @@ def smooth_field_to_mesh(field, mask, grid, fixed=None):
     values of the ``fixed`` voxels (flat indices) held: the closed mesh of the voxel stage, whose
     surface is the input's own where nothing changed and smooth elsewhere, and encloses exactly
     ``mask``'s voxels."""
-    held = None
-    if fixed is not None and len(fixed):
-        held = np.zeros(field.shape, dtype=bool)
+    held = np.zeros(field.shape, dtype=bool)
+    if fixed is not None:
         held.reshape(-1)[fixed] = True
-    return field_to_mesh(smooth_constrained(field, mask, held), grid)
+    # Only the surface the fixed values do not give needs smoothing: its box, widened by the smoothing's reach.
+    box = bounding_box((np.abs(field) < 1.5) & ~held, margin=SMOOTHING_REACH)
+    if box is not None:
+        field = field.copy()
+        field[box] = smooth_constrained(field[box], mask[box], held[box])
+    return field_to_mesh(field, grid)
 
 
 def mask_to_world_mesh(mask, affine, smooth=True):
@@ -158,7 +163,9 @@ def labels_to_world_meshes(labels, affine, which=None):
     meshes = {}
     for value in which:
         box, own = fields[value]
-        others = np.full(own.shape, -np.inf, dtype=np.float32)
+        others = np.full(own.shape, -np.inf, dtype=np.float32)  # the largest of the other labels' fields
+        first = own.copy()  # the largest and second largest of every label's field
+        second = np.full(own.shape, -np.inf, dtype=np.float32)
         for other, (other_box, field) in fields.items():
             if other == value:
                 continue
@@ -168,9 +175,18 @@ def labels_to_world_meshes(labels, affine, which=None):
             mine = tuple(slice(o.start - a.start, o.stop - a.start) for o, a in zip(overlap, box))
             theirs = tuple(slice(o.start - b.start, o.stop - b.start) for o, b in zip(overlap, other_box))
             np.maximum(others[mine], field[theirs], out=others[mine])
+            np.maximum(second[mine], np.minimum(first[mine], field[theirs]), out=second[mine])
+            np.maximum(first[mine], field[theirs], out=first[mine])
+        field = own - others
+        # On the grid edges from this label's voxels to another's, the two surfaces cross at one point
+        # when each field at the other's voxel is the negative of that voxel's own margin (its label's
+        # field less the runner-up's): where a third label is the runner-up there, it would part them.
+        label = padded[box]
+        across = ndimage.binary_dilation(label == value) & (label != value)
+        field[across] = second[across] - first[across]
         local = np.eye(4)
         local[:3, 3] = [b.start for b in box]
-        meshes[value] = field_to_world_mesh(own - others, affine @ shift @ local)
+        meshes[value] = field_to_world_mesh(field, affine @ shift @ local)
     return meshes
 
 

@@ -8,7 +8,7 @@ import trimesh
 
 from skelfilter.core import surface_field, synthetic_noise
 from skelfilter.core.pipeline import DenoiseResult, denoise_padded, padding_from, passes_through, resolve_params
-from skelfilter.errors import InputError, ParameterError, ResourceError
+from skelfilter.errors import InputError, OpenSurfaceError, ParameterError, ResourceError
 from skelfilter.io.mesh_files import validate_mesh
 from skelfilter.mesh import fine_pass, marching_cubes, output_choice, vertex_projection, voxelize
 from skelfilter.mesh.frame import Frame
@@ -106,8 +106,9 @@ def _denoise_unit(mesh, params, progress):
     if lattice is None and (params.output_mesh in ("auto", "input") or params.fine_pass != "off"):
         with progress.step("roughness"):
             roughness = output_choice.measure(mesh)
-    if params.output_mesh == "closed" and roughness is not None and params.fine_pass != "off" and (
-            roughness.noisy or params.fine_pass == "on"):
+    fine_noise = roughness is not None and roughness.noisy and not roughness.skeleton_scale
+    if params.output_mesh == "closed" and roughness is not None and (
+            params.fine_pass == "on" or (params.fine_pass == "auto" and fine_noise)):
         mesh = _smoothed_first(mesh, params, roughness, progress)
     routed = params.output_mesh == "auto" and not asked and roughness is not None
     if routed and not roughness.noisy and params.fine_pass != "on":
@@ -133,7 +134,7 @@ def _denoise_unit(mesh, params, progress):
                 output_choice.is_closed(mesh.faces)
                 or output_choice.solid_share(occupancy, mesh, grid) >= output_choice.SOLID_SHARE)
             if not solid and output == "closed":
-                raise InputError(
+                raise OpenSurfaceError(
                     f"the input is an open surface (less than {100 * output_choice.SOLID_SHARE:g} % of its "
                     "voxelization lies on it): a new closed mesh of it would be the voxels it happens to enclose, "
                     "not the scan; output_mesh auto or input keeps the surface and smooths it")
@@ -186,9 +187,10 @@ def _denoise_unit(mesh, params, progress):
 
 
 def _smoothed_first(mesh, params, roughness, progress):
-    """``mesh`` smoothed by the fine pass before it is voxelized for a new closed mesh: the closed
-    mesh keeps the input's own surface wherever the voxel stage changes nothing
-    (`marching_cubes.keep_input_surface`), so fine noise left on the input stays on it."""
+    """``mesh`` smoothed by the fine pass before it is voxelized for a new closed mesh, where its noise is
+    fine (what the default's routing gives the fine pass) or the fine pass is on: the closed mesh keeps
+    the input's own surface wherever the voxel stage changes nothing (`marching_cubes.keep_input_surface`),
+    so fine noise left on the input would stay on it."""
     progress.note(f"{roughness.describe()}: smoothed by the fine pass before the voxel stage")
     vertices = _kept_vertices(mesh, None, params.with_(fine_pass="on"), None, progress, roughness)
     return trimesh.Trimesh(vertices, np.asarray(mesh.faces), process=False)

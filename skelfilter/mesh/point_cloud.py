@@ -77,26 +77,44 @@ def points_to_mesh(cloud, name="the point cloud"):
                          f"shape {size:.3g} across (at least {MIN_POINTS}, at most 1/{MAX_SPACING_RATIO} of "
                          "it apart, needed)")
     depth = int(np.clip(np.ceil(np.log2(size / spacing)), *DEPTH_RANGE))
+    estimated = not legacy.has_normals()
     try:
-        if not legacy.has_normals():
+        if estimated:
             # 50 neighbours for both: fewer flipped patches on sharp, bumpy scans (measured on fandisk
             # with stripes: Poisson surface 0.51 voxels from the mesh the points came from, 2.6 with 20/15).
             legacy.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(knn=NEIGHBOURS))
             legacy.orient_normals_consistent_tangent_plane(NEIGHBOURS)
-        with native_output.captured():  # PoissonRecon's warnings, which say nothing to a user
-            surface, _ = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(legacy, depth=depth)
+        mesh = _poisson(o3d, legacy, depth)
+        if estimated and _encloses_nothing(mesh, size):
+            # The propagation over the neighbours flipped whole patches (a noisy fandisk: 42 % of the
+            # normals point out); a closed scan's normals point away from its centre nearly everywhere.
+            points = np.asarray(legacy.points)
+            legacy.orient_normals_towards_camera_location(points.mean(axis=0))
+            legacy.normals = o3d.utility.Vector3dVector(-np.asarray(legacy.normals))
+            mesh = _poisson(o3d, legacy, depth)
     except RuntimeError as exc:  # qhull or Poisson giving up on a degenerate cloud
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise InputError(f"{name} has no consistent inside: open3d could not orient or mesh it ({first})") \
             from None
-    # Poisson's surface is closed but may have a few non-manifold edges; the voxelization does not mind.
-    mesh = trimesh.Trimesh(np.asarray(surface.vertices), np.asarray(surface.triangles), process=True)
-    if len(mesh.faces) == 0 or abs(mesh.volume) < MIN_VOLUME * size**3:
+    if _encloses_nothing(mesh, size):
         raise InputError(f"{name} has no consistent inside: its Poisson surface encloses nothing "
                          "(a flat scan, or normals that do not agree)")
     if mesh.volume < 0:  # the normals pointed inwards throughout
         mesh.invert()
     return mesh
+
+
+def _poisson(o3d, cloud, depth):
+    """open3d's screened Poisson surface of an oriented legacy cloud, as a trimesh (closed, but it may
+    have a few non-manifold edges; the voxelization does not mind)."""
+    with native_output.captured():  # PoissonRecon's warnings, which say nothing to a user
+        surface, _ = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(cloud, depth=depth)
+    return trimesh.Trimesh(np.asarray(surface.vertices), np.asarray(surface.triangles), process=True)
+
+
+def _encloses_nothing(mesh, size):
+    """Whether a Poisson surface encloses less than `MIN_VOLUME` of the cube of ``size``."""
+    return len(mesh.faces) == 0 or abs(mesh.volume) < MIN_VOLUME * size**3
 
 
 def move_points(cloud, mesh):
