@@ -336,6 +336,33 @@ def run_case(solid_name, spacing_name, noisy, methods, seed):
             "voxels": int(mask.sum()), "methods": rows}
 
 
+PICTURE_CASES = (("torus", "thick", False), ("rod", "thick", False), ("bent vessel", "thick-fine", False),
+                 ("ball", "iso", True), ("rod", "iso", True))
+
+
+def pictures(methods, path, seed=1, cases=PICTURE_CASES):
+    """One row per case, one panel per method, each case framed by its true solid's box; a PNG."""
+    from matplotlib.figure import Figure
+
+    from skelfilter.evaluation import figures
+
+    fig = Figure(figsize=(3.2 * len(methods), 3.2 * len(cases)), dpi=100)
+    for row, (solid_name, spacing_name, noisy) in enumerate(cases):
+        solid = SOLIDS[solid_name]()
+        mask, affine = label_map(solid, SPACINGS[spacing_name], seed)
+        if noisy:
+            mask = boundary_noise(mask, seed)
+        half = solid["extent"]
+        bounds = np.array([[-half] * 3, [half] * 3])
+        for col, name in enumerate(methods):
+            ax = fig.add_subplot(len(cases), len(methods), row * len(methods) + col + 1, projection="3d")
+            figures.draw_mesh(ax, METHODS[name](mask, affine), bounds=bounds)
+            title = f"{solid_name} {spacing_name}{' noisy' if noisy else ''}: {name}" if col == 0 else name
+            ax.set_title(title, fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path)
+
+
 def table(results, methods):
     head = "| case | " + " | ".join(methods) + " |"
     lines = [head, "|" + "---|" * (len(methods) + 1)]
@@ -359,6 +386,7 @@ def main(argv=None):
     parser.add_argument("--noise", choices=("clean", "boundary", "both"), default="both")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--out", default="surface-output")
+    parser.add_argument("--pictures", action="store_true", help="also draw a few cases (pictures.png)")
     args = parser.parse_args(argv)
     methods = args.methods.split(",")
     sets = list(SETS) if args.set == "all" else [args.set]
@@ -379,6 +407,8 @@ def main(argv=None):
         text += f"\n## {set_name}\n\n" + table([r for r in results if r["set"] == set_name], methods) + "\n"
     with open(os.path.join(args.out, "table.md"), "w") as f:
         f.write(text)
+    if args.pictures:
+        pictures(methods, os.path.join(args.out, "pictures.png"), args.seed)
     print(text)
     return 0
 

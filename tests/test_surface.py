@@ -136,3 +136,41 @@ def test_every_label_s_surface_encloses_its_voxels_and_neighbours_share_their_bo
     assert max(float(g.max()) for g in gaps.values()) < 1e-4
     independent = {label: mask_to_world_mesh(labels == label, affine) for label in meshes}
     assert max(float(g.max()) for g in surfaces.interface_gaps(labels, affine, independent).values()) > 0.5
+
+
+def _three_labels():
+    labels = np.zeros((30, 30, 24), np.uint8)
+    i, j, k = np.indices(labels.shape)
+    labels[(i - 11) ** 2 + (j - 15) ** 2 + (k - 12) ** 2 < 60] = 1
+    labels[((i - 19) ** 2 + (j - 15) ** 2 + (k - 12) ** 2 < 60) & (labels == 0)] = 2
+    labels[((i - 15) ** 2 + (j - 23) ** 2 + (k - 12) ** 2 < 45) & (labels == 0)] = 5
+    return labels
+
+
+def test_all_labels_gives_one_named_part_per_label_and_keeps_a_clean_map(tmp_path):
+    from skelfilter.jobs.denoise_file import denoise_file
+    from skelfilter.params import DenoiseParams, VolumeParams
+
+    labels = _three_labels()
+    np.save(tmp_path / "labels.npy", labels)
+    summary = denoise_file(tmp_path / "labels.npy", tmp_path / "parts.glb", DenoiseParams(),
+                           VolumeParams(all_labels=True))
+    scene = trimesh.load(tmp_path / "parts.glb")
+    assert sorted(scene.geometry) == ["label_1", "label_2", "label_5"] and summary["voxels_changed"] == 0
+    assert all(m.is_watertight for m in scene.geometry.values())
+    denoise_file(tmp_path / "labels.npy", tmp_path / "out.npy", DenoiseParams(), VolumeParams(all_labels=True))
+    assert np.array_equal(np.load(tmp_path / "out.npy"), labels)
+
+
+def test_all_labels_refuses_a_mesh_format_without_parts_and_fractional_data(tmp_path):
+    from skelfilter.errors import InputError
+    from skelfilter.jobs.denoise_file import denoise_file
+    from skelfilter.params import DenoiseParams, VolumeParams
+
+    np.save(tmp_path / "labels.npy", _three_labels())
+    with pytest.raises(InputError, match="named part needs a obj or glb output"):
+        denoise_file(tmp_path / "labels.npy", tmp_path / "parts.ply", DenoiseParams(), VolumeParams(all_labels=True))
+    assert not (tmp_path / "parts.ply").exists()
+    np.save(tmp_path / "grey.npy", _three_labels() * 0.5)
+    with pytest.raises(InputError, match="not a label map"):
+        denoise_file(tmp_path / "grey.npy", tmp_path / "out.npy", DenoiseParams(), VolumeParams(all_labels=True))
