@@ -174,3 +174,14 @@ def test_all_labels_refuses_a_mesh_format_without_parts_and_fractional_data(tmp_
     np.save(tmp_path / "grey.npy", _three_labels() * 0.5)
     with pytest.raises(InputError, match="not a label map"):
         denoise_file(tmp_path / "grey.npy", tmp_path / "out.npy", DenoiseParams(), VolumeParams(all_labels=True))
+
+
+def test_the_surface_flag_is_refused_for_a_volume_output(tmp_path):
+    from skelfilter.errors import ParameterError
+    from skelfilter.jobs.denoise_file import denoise_file
+    from skelfilter.params import DenoiseParams
+
+    np.save(tmp_path / "labels.npy", _three_labels() == 1)
+    with pytest.raises(ParameterError, match="surface.* would have no effect"):
+        denoise_file(tmp_path / "labels.npy", tmp_path / "out.npy", DenoiseParams(surface="plain"))
+    assert not (tmp_path / "out.npy").exists()

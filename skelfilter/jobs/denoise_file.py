@@ -14,11 +14,11 @@ import numpy as np
 import trimesh
 
 from skelfilter.core import pipeline
-from skelfilter.errors import InputError, OpenSurfaceError
+from skelfilter.errors import InputError, OpenSurfaceError, ParameterError
 from skelfilter.io import formats, mesh_files, output_files, point_files, volume_files
 from skelfilter.mesh import marching_cubes, point_cloud
 from skelfilter.mesh import pipeline as mesh_pipeline
-from skelfilter.params import VolumeParams
+from skelfilter.params import DenoiseParams, VolumeParams
 from skelfilter.runtime.progress import Progress
 
 # What each kind of input can become.
@@ -109,6 +109,9 @@ def denoise_file(input_path, output_path, params, volume_params=None, save_skele
 
 
 def _denoise_volume_file(input_path, output_path, kind_out, params, volume_params, progress, preview=None):
+    if kind_out == "volume" and params.surface != DenoiseParams(preset=params.preset).surface:
+        raise ParameterError(f"`surface` {params.surface} would have no effect: {output_path} is a volume, the "
+                             "surface is made only for a mesh output")
     if volume_params.all_labels:
         return _denoise_label_map_file(input_path, output_path, kind_out, params, volume_params, progress, preview)
     volume = volume_files.load_volume(input_path, volume_params.spacing)
