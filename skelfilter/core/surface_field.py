@@ -76,8 +76,8 @@ def smooth_constrained(field, inside, fixed=None, unit=1.0, sigma=SMOOTHING_SIGM
         Voxels whose values are kept as they are (a surface already known to sub-voxel precision).
     unit : float
         The field's value one voxel (the finest spacing) deep: sets the margin.
-    sigma : float
-        Voxels (index units along every axis).
+    sigma : float or sequence of floats
+        Voxels (index units), or one per axis.
     rounds : int
 
     Returns
