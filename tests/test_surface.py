@@ -42,15 +42,6 @@ def test_fixed_voxels_keep_their_values():
     assert np.array_equal(out[fixed], field[fixed]) and not np.array_equal(out[~fixed], field[~fixed])
 
 
-def _inside(mesh, points):
-    import open3d as o3d
-
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor(np.asarray(mesh.vertices, dtype=np.float32)),
-                        o3d.core.Tensor(np.asarray(mesh.faces, dtype=np.uint32)))
-    return scene.compute_occupancy(o3d.core.Tensor(np.asarray(points, dtype=np.float32))).numpy() > 0.5
-
-
 @pytest.mark.parametrize("seed", [0, 4])
 def test_the_mesh_encloses_exactly_the_voxel_centres_in_world_coordinates(seed):
     mask = _blob((18, 20, 16), seed)
@@ -60,7 +51,7 @@ def test_the_mesh_encloses_exactly_the_voxel_centres_in_world_coordinates(seed):
     assert np.count_nonzero(mesh.area_faces <= 1e-12) == 0
     ijk = np.indices(mask.shape).reshape(3, -1).T
     centres = ijk @ affine[:3, :3].T + affine[:3, 3]
-    assert np.array_equal(_inside(mesh, centres), mask.reshape(-1))
+    assert np.array_equal(surfaces._inside(mesh, centres), mask.reshape(-1))
 
 
 @pytest.mark.parametrize("spacing", ["iso", "thick"])
@@ -130,7 +121,7 @@ def test_every_label_s_surface_encloses_its_voxels_and_neighbours_share_their_bo
     centres = ijk @ affine[:3, :3].T
     for label, mesh in meshes.items():
         assert mesh.is_watertight and mesh.is_winding_consistent
-        assert np.array_equal(_inside(mesh, centres), labels.reshape(-1) == label)
+        assert np.array_equal(surfaces._inside(mesh, centres), labels.reshape(-1) == label)
     gaps = surfaces.interface_gaps(labels, affine, meshes)
     assert set(gaps) == {(1, 2), (1, 3), (2, 3)}
     assert max(float(g.max()) for g in gaps.values()) < 1e-4
