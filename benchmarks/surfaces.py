@@ -1,7 +1,7 @@
 """Surfaces from label maps: skelfilter's mesh of a label map against the surfaces a segmentation user
 already has, scored against the analytic solid the label map samples.
 
-    python benchmarks/surfaces.py [--set tuning|held-out|all] [--methods a,b] [--out surface-output]
+    python benchmarks/surfaces.py [--set tuning|held-out|all] [--methods a,b] [--oracle] [--out surface-output]
 
 Each case is an analytic solid (exact signed distance in millimetres) sampled as a label map: a voxel
 is set where its centre lies inside. Spacings are isotropic and thick-sliced (slices two or more times
@@ -16,6 +16,10 @@ flipped at random. Every method meshes the same label map in world millimetres:
 - ``surface nets``: VTK's ``vtkSurfaceNets3D`` with its own constrained smoothing (defaults);
 - ``skelfilter``: ``skelfilter denoise seg.nii.gz out.ply --label 1``, no flags (the file written and
   read back, as a user runs it).
+
+``--oracle`` adds the column ``true distance``: marching cubes of the solid's exact signed distance at the
+same voxel centres, the best any marching cubes of that grid can do (its triangles are chords of the
+surface: a part a few voxels thick loses volume even there).
 
 Scores: ``distance`` (mm, the mean of the mean distance from the mesh to the true surface and from the
 true surface to the mesh), ``normal_error`` (degrees, area-weighted mean angle between the mesh's face
@@ -126,18 +130,34 @@ SETS = {
 }
 
 
-def label_map(solid, spacing, seed):
-    """The solid sampled at voxel centres: (mask, affine), the solid at a random sub-voxel offset."""
+def sampled_distance(solid, spacing, seed):
+    """The solid's signed distance (mm, < 0 inside) at the voxel centres of its grid, the solid at a
+    random sub-voxel offset: (values, affine)."""
     spacing = np.asarray(spacing, dtype=float)
     rng = np.random.default_rng(seed)
     half = solid["extent"] + MARGIN_MM
     shape = np.ceil(2 * half / spacing).astype(int) + 1
     origin = -half + rng.uniform(-0.5, 0.5, 3) * spacing
     ijk = np.stack(np.meshgrid(*[np.arange(n) for n in shape], indexing="ij"), axis=-1).reshape(-1, 3)
-    mask = (solid["sdf"](origin + ijk * spacing) < 0).reshape(shape)
     affine = np.diag([*spacing, 1.0])
     affine[:3, 3] = origin
-    return mask, affine
+    return solid["sdf"](origin + ijk * spacing).reshape(shape), affine
+
+
+def label_map(solid, spacing, seed):
+    """The solid sampled at voxel centres: (mask, affine), the solid at a random sub-voxel offset."""
+    values, affine = sampled_distance(solid, spacing, seed)
+    return values < 0, affine
+
+
+def true_distance_mesh(solid, spacing, seed):
+    """The oracle: marching cubes of the solid's exact distance at the label map's voxel centres, the
+    best surface a marching cubes of that grid can give (its triangles are chords: thin parts lose
+    volume)."""
+    from skelfilter.mesh.marching_cubes import field_to_world_mesh
+
+    values, affine = sampled_distance(solid, spacing, seed)
+    return field_to_world_mesh(-values.astype(np.float32), affine)
 
 
 def boundary_noise(mask, seed):
@@ -331,11 +351,17 @@ def run_case(solid_name, spacing_name, noisy, methods, seed):
     rows = {}
     for name in methods:
         start = time.perf_counter()
-        mesh = METHODS[name](mask, affine)
+        if name == ORACLE:
+            mesh = true_distance_mesh(solid, SPACINGS[spacing_name], seed)
+        else:
+            mesh = METHODS[name](mask, affine)
         rows[name] = {**score(mesh, solid, truth), "seconds": time.perf_counter() - start,
                       "faces": len(mesh.faces)}
     return {"solid": solid_name, "spacing": spacing_name, "noise": "boundary" if noisy else "clean",
             "voxels": int(mask.sum()), "methods": rows}
+
+
+ORACLE = "true distance"  # `true_distance_mesh`: a column of the table, not a method of a label map
 
 
 PICTURE_CASES = (("torus", "thick", False), ("rod", "thick", False), ("bent vessel", "thick-fine", False),
@@ -427,6 +453,8 @@ def main(argv=None):
     parser.add_argument("--noise", choices=("clean", "boundary", "both"), default="both")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--out", default="surface-output")
+    parser.add_argument("--oracle", action="store_true",
+                        help=f"also the {ORACLE!r} column: marching cubes of the exact distance on the same grid")
     parser.add_argument("--pictures", action="store_true", help="also draw a few cases (pictures.png)")
     parser.add_argument("--frog", action="store_true",
                         help="only pyvista's frog tissue map: every label at once (frog.json, frog.png)")
@@ -437,7 +465,7 @@ def main(argv=None):
         print(json.dumps({k: v for k, v in row.items() if k != "changed_by_default"}))
         print("labels the default changes:", {k: v for k, v in row["changed_by_default"].items() if v[1]})
         return 0
-    methods = args.methods.split(",")
+    methods = args.methods.split(",") + ([ORACLE] if args.oracle else [])
     sets = list(SETS) if args.set == "all" else [args.set]
     os.makedirs(args.out, exist_ok=True)
     results = []

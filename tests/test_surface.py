@@ -12,7 +12,7 @@ import trimesh
 
 from skelfilter.core import pipeline, volume_fine_pass
 from skelfilter.core.spacing import signed_distance
-from skelfilter.core.surface_field import smooth_constrained
+from skelfilter.core.surface_field import match_voxel_volume, smooth_constrained
 from skelfilter.mesh.marching_cubes import mask_to_world_mesh
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
@@ -29,7 +29,7 @@ def _blob(shape, seed):
 @pytest.mark.parametrize("spacing", [(1.0, 1.0, 1.0), (0.7, 0.7, 2.1)])
 def test_the_smoothed_field_keeps_every_voxel_centre_on_its_side(seed, spacing):
     mask = _blob((20, 22, 18), seed)
-    field = smooth_constrained(signed_distance(mask, spacing), mask, unit=min(spacing))
+    field = smooth_constrained(signed_distance(mask, spacing), mask, spacing=spacing)
     assert ((field > 0) == mask).all()
 
 
@@ -40,6 +40,36 @@ def test_fixed_voxels_keep_their_values():
     fixed[:, :10] = True
     out = smooth_constrained(field, mask, fixed)
     assert np.array_equal(out[fixed], field[fixed]) and not np.array_equal(out[~fixed], field[~fixed])
+
+
+@pytest.mark.parametrize("spacing", [(1.0, 1.0, 1.0), (1.0, 1.0, 2.0)])
+@pytest.mark.parametrize("offset", [0.1, 0.35, 0.8])
+def test_the_volume_move_of_a_flat_surface_is_its_distance_from_half_way(spacing, offset):
+    """A plane across the slices at ``offset`` of a slice past the last inside centre: its voxels enclose
+    up to half-way between the centres, so the surface must move by (1/2 - offset) slices."""
+    shape = (16, 16, 12)
+    z = np.indices(shape)[2] * spacing[2]
+    level = (5 + offset) * spacing[2]
+    field = (level - z).astype(np.float32)
+    move = match_voxel_volume(field, field > 0, spacing)
+    assert np.allclose(move[4:12, 4:12, 5], (0.5 - offset) * spacing[2], atol=1e-5)
+
+
+@pytest.mark.parametrize("spacing", [(1.0, 1.0, 1.0), (0.7, 0.7, 2.1)])
+def test_a_tilted_plane_s_voxels_hold_its_volume(spacing):
+    """Sampled at the centres, a tilted plane's voxels enclose its volume in the mean: the move at its
+    surface (the plane's exact distance as the field: its marching cubes is the plane) is a jitter of a
+    few hundredths of a voxel around 0, where a half-voxel offset (previous test) moves it half a voxel."""
+    normal = np.array([0.3, 0.5, 0.81])
+    normal /= np.linalg.norm(normal)
+    points = np.indices((30, 30, 20)).reshape(3, -1).T * np.asarray(spacing)
+    centre = np.array([14.6, 15.1, 9.7]) * np.asarray(spacing)
+    field = ((centre - points) @ normal).reshape(30, 30, 20).astype(np.float32)
+    move = match_voxel_volume(field, field > 0, spacing)
+    near = (np.abs(field) < min(spacing)) & (np.indices(field.shape).min(axis=0) > 5)
+    near &= (np.array(field.shape)[:, None, None, None] - 6 > np.indices(field.shape)).all(axis=0)
+    coarsest = max(spacing)
+    assert abs(float(move[near].mean())) < 0.015 * coarsest and float(np.abs(move[near]).max()) < 0.03 * coarsest
 
 
 @pytest.mark.parametrize("seed", [0, 4])
@@ -57,15 +87,26 @@ def test_the_mesh_encloses_exactly_the_voxel_centres_in_world_coordinates(seed):
 @pytest.mark.parametrize("spacing", ["iso", "thick"])
 def test_a_ball_s_label_map_comes_out_smooth_and_true(spacing):
     """Against the analytic ball (radius 11 mm): the staircase's normal error is 21-24 degrees; the
-    smooth surface's 4.2 and 5.5, 3D Slicer's export 4.5 and 6.1 (benchmarks/surfaces.py)."""
+    smooth surface's 4.2 and 5.5, 3D Slicer's export 4.5 and 6.1; its volume 0.2 and 0.4 % short of the
+    true one (benchmarks/surfaces.py)."""
     solid = surfaces.SOLIDS["ball"]()
     mask, affine = surfaces.label_map(solid, surfaces.SPACINGS[spacing], 1)
     truth = surfaces.true_surface_samples(solid, 5000)
     smooth = surfaces.score(mask_to_world_mesh(mask, affine), solid, truth)
     plain = surfaces.score(mask_to_world_mesh(mask, affine, smooth=False), solid, truth)
     assert plain["normal_error"] > 18 and smooth["normal_error"] < 6.0
-    assert smooth["distance"] < 0.11 and abs(smooth["volume_error"]) < 2.5
+    assert smooth["distance"] < 0.09 and abs(smooth["volume_error"]) < 1.0
     assert smooth["manifold"] and smooth["pieces"] == 1 and smooth["zero_area"] == 0
+
+
+def test_a_thin_rod_across_thick_slices_keeps_its_volume():
+    """The rod three pixels in radius across slices twice as thick: the smoothed surface pressed against
+    its inside centres lost 9.5 % of its volume, moved out to its voxels' volume 2.9 % (3D Slicer's
+    export 7.2 %); 0.09 mm from the true surface on average (Slicer 0.14)."""
+    solid = surfaces.SOLIDS["rod"]()
+    mask, affine = surfaces.label_map(solid, surfaces.SPACINGS["thick"], 1)
+    row = surfaces.score(mask_to_world_mesh(mask, affine), solid, surfaces.true_surface_samples(solid, 5000))
+    assert abs(row["volume_error"]) < 4.0 and row["distance"] < 0.1 and row["normal_error"] < 10
 
 
 @pytest.mark.parametrize("solid, spacing", [("torus", "thick"), ("rod", "thick"), ("rod", "thick-x"),
@@ -83,6 +124,32 @@ def test_a_thin_rod_s_roughness_is_its_sampling_and_boundary_flips_are_noise():
     assert clean.roughness >= volume_fine_pass.LEAST_ROUGHNESS and not clean.found
     assert "thin parts" in clean.describe()
     assert volume_fine_pass.voxel_roughness(surfaces.boundary_noise(mask, 1), sampled=True).found
+
+
+def test_flipped_voxels_are_smoothed_without_taking_the_volume_of_a_thin_part():
+    """A quarter of a thin rod's boundary voxels flipped (radius 3 voxels): the twiced Gaussian at the
+    fine pass's widest sigma takes a fifth of it away, the volume-keeping smoothing keeps its voxels'
+    volume to a few percent."""
+    mask, _ = surfaces.label_map(surfaces.SOLIDS["rod"](), surfaces.SPACINGS["iso"], 1)
+    noisy = surfaces.boundary_noise(mask, 1)
+    assert volume_fine_pass.smoothed_shrink_free(noisy, 2.0).sum() < 0.8 * noisy.sum()
+    kept = volume_fine_pass.smoothed_volume_kept(noisy, 2.0)
+    assert abs(int(kept.sum()) - int(noisy.sum())) < 0.06 * noisy.sum()
+    assert np.count_nonzero(kept != mask) < 0.5 * np.count_nonzero(noisy != mask)
+
+
+@pytest.mark.parametrize("solid", ["ball", "torus", "rod"])
+@pytest.mark.parametrize("spacing", ["iso", "thick"])
+def test_a_label_map_with_flipped_boundary_voxels_comes_back_with_its_volume(solid, spacing):
+    """Denoised, a label map with a quarter of its boundary voxels flipped keeps the clean map's voxel
+    count within 2 % (ball, torus; the thin rod 8 %: flips add more voxels outside a thin part than
+    they take in), at slices twice as thick too, where a voxel the cubic grid's surface halves keeps
+    its own value (all going out took 6 % of the ball's volume)."""
+    mask, affine = surfaces.label_map(surfaces.SOLIDS[solid](), surfaces.SPACINGS[spacing], 1)
+    noisy = surfaces.boundary_noise(mask, 1)
+    result = pipeline.denoise_volume(noisy, spacing=np.diag(affine)[:3])
+    assert abs(int(result.mask.sum()) - int(mask.sum())) < (0.08 if solid == "rod" else 0.02) * mask.sum()
+    assert np.count_nonzero(result.mask != mask) < 0.35 * np.count_nonzero(noisy != mask)
 
 
 @pytest.mark.parametrize("surface", ["smooth", "plain"])

@@ -29,6 +29,9 @@ CROP_MARGIN = 12
 # that is left. The stage then prunes its skeleton again at t divided by each of FINER_THRESHOLDS in turn.
 LEAST_KEPT = 0.25
 FINER_THRESHOLDS = (2, 4)
+# Voxels: the field given to a voxel the surface passes through exactly on the way back to the input's
+# thick slices, with the sign of the input's voxel.
+SURFACE_TIE = 1e-3
 
 
 @dataclass
@@ -320,6 +323,11 @@ def _denoise_volume(volume, params, progress, spacing, affine, overrides):
     if resample:
         with progress.step("back to the input's voxels"):
             result.field = voxel_spacing.from_isotropic(result.field, spacing, volume.shape)
+            # A voxel whose centre the surface passes through (half of it in, half out on the cubic
+            # grid: the surface between its two halves) keeps the input's value; all going out would
+            # take a quarter slice off every cap (a ball 6 % of its volume at slices twice as thick).
+            tie = result.field == 0
+            result.field[tie] = np.where(volume[tie], SURFACE_TIE, -SURFACE_TIE)
             result.mask = result.field > 0
     result.voxels_changed = int(np.count_nonzero(result.mask != volume))
     return result

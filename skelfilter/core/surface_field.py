@@ -18,6 +18,20 @@ SMOOTHING_ROUNDS = 3
 # Voxels: how far inside (outside) its voxel centre's value is held at least, so no vertex of the
 # marching cubes lands on a centre (no triangle without area).
 CONSTRAINT_MARGIN = 0.02
+# Voxels of the finest axis: the reach over which the smoothed surface is moved to enclose its voxels'
+# volume (`match_voxel_volume`); wide enough that the sampling's jitter averages out along the surface,
+# narrow enough that a thin part and the thick one it leaves are matched each on its own.
+VOLUME_MATCH_SCALE = 4.0
+
+
+def axis_sigmas(spacing, sigma=SMOOTHING_SIGMA):
+    """The smoothing's sigma along each axis of a grid of ``spacing``, in its voxels: ``sigma`` along the
+    finest axis, and along a coarser one less by the square root of how much coarser (a slice twice as
+    thick: 0.57 slices, 1.13 in-plane pixels), between the same number of voxels on every axis, which
+    rounds off what thick slices leave of a thin part, and the same length, which leaves their
+    terraces."""
+    spacing = np.asarray(spacing, dtype=float)
+    return tuple(float(s) for s in sigma * np.sqrt(spacing.min() / spacing))
 
 
 def unchanged_band(field, mask, occupancy, reach):
@@ -53,7 +67,7 @@ def mask_field(mask):
     return reconstruct.union_of_balls(mask.shape, centres, radii)[1]
 
 
-def smooth_constrained(field, inside, fixed=None, unit=1.0, sigma=SMOOTHING_SIGMA, rounds=SMOOTHING_ROUNDS):
+def smooth_constrained(field, inside, fixed=None, spacing=(1.0, 1.0, 1.0), rounds=SMOOTHING_ROUNDS):
     """The smoothest field near ``field`` whose sign at every voxel centre is ``inside``'s.
 
     A voxel mask is the sampling of a smooth surface: each set voxel's centre lies inside it, each
@@ -74,10 +88,9 @@ def smooth_constrained(field, inside, fixed=None, unit=1.0, sigma=SMOOTHING_SIGM
         The voxels whose centres must stay inside, same shape.
     fixed : bool ndarray, optional
         Voxels whose values are kept as they are (a surface already known to sub-voxel precision).
-    unit : float
-        The field's value one voxel (the finest spacing) deep: sets the margin.
-    sigma : float or sequence of floats
-        Voxels (index units), or one per axis.
+    spacing : sequence of 3 floats
+        A voxel's size along each axis in the field's unit: sets the margin, the Gaussian's sigma along
+        each axis (`axis_sigmas`) and the volume a voxel stands for.
     rounds : int
 
     Returns
@@ -105,13 +118,108 @@ def smooth_constrained(field, inside, fixed=None, unit=1.0, sigma=SMOOTHING_SIGM
     """
     inside = np.asarray(inside, dtype=bool)
     original = np.asarray(field, dtype=np.float32)
+    spacing = np.asarray(spacing, dtype=float)
+    sigma = axis_sigmas(spacing)
     current = original.copy()
-    margin = np.float32(CONSTRAINT_MARGIN * unit)
     for _ in range(rounds):
         once = ndimage.gaussian_filter(current, sigma, mode="nearest")
         current = 2 * once - ndimage.gaussian_filter(once, sigma, mode="nearest")
-        np.maximum(current, margin, out=current, where=inside)
-        np.minimum(current, -margin, out=current, where=~inside)
-        if fixed is not None:
-            current[fixed] = original[fixed]
+        _constrain(current, inside, original, fixed, spacing)
+    current += match_voxel_volume(current, inside, spacing, fixed)
+    _constrain(current, inside, original, fixed, spacing)
     return current
+
+
+def _constrain(field, inside, original, fixed, spacing):
+    """Every voxel centre back on its side by `CONSTRAINT_MARGIN` voxels at least, ``fixed`` voxels to
+    their ``original`` values; in place."""
+    margin = np.float32(CONSTRAINT_MARGIN * spacing.min())
+    np.maximum(field, margin, out=field, where=inside)
+    np.minimum(field, -margin, out=field, where=~inside)
+    if fixed is not None:
+        field[fixed] = original[fixed]
+
+
+def match_voxel_volume(field, inside, spacing, fixed=None, scale=VOLUME_MATCH_SCALE):
+    r"""How far to move the 0-level of ``field`` out (> 0) or in, near each voxel, for the surface to
+    enclose the volume of its ``inside`` voxels there.
+
+    Along a grid line, the voxels' volume is what a surface crossing each edge between an inside and
+    an outside centre half-way encloses; one crossing it at ``t`` of the edge from the inside centre
+    (the marching cubes' crossing, linear in the field) encloses ``(t - 1/2) h_a`` more, per cell of
+    cross-section ``h_b h_c``. A surface of unit normal ``n`` is crossed by edges along axis ``a`` at
+    ``|n_a| / (h_b h_c)`` per unit area, so moving it out by ``c`` adds ``c`` per unit area along every
+    axis; weighting each axis' edges by ``|n_a|^2`` (most crossings, least slant) the volume to add
+    near a point and the area there are
+
+    .. math:: \Delta V = \sum_e |n_a|^2 (1/2 - t_e) h_a h_b h_c, \qquad
+              A = \sum_e |n_a| h_b h_c,
+
+    both summed over the crossed edges with a Gaussian weight of ``scale`` voxels, and the move is
+    ``c = \Delta V / A``: the local mean of ``|n_a| (1/2 - t_e) h_a``, at most half a voxel. Edges next to
+    a ``fixed`` voxel count for nothing.
+
+    Parameters
+    ----------
+    field : float32 ndarray
+        > 0 inside, in the unit of ``spacing``.
+    inside : bool ndarray
+    spacing : sequence of 3 floats
+    fixed : bool ndarray, optional
+    scale : float
+        Sigma of the Gaussian weight, in voxels of the finest axis.
+
+    Returns
+    -------
+    float32 ndarray
+        The move, in the field's unit; 0 far from the surface.
+    """
+    spacing = np.asarray(spacing, dtype=float)
+    shape = field.shape
+    flat = field.reshape(-1)
+    strides = np.array([int(np.prod(shape[a + 1:])) for a in range(3)])
+    # The Gaussian weight is wide: the sums are gathered on blocks of voxels about a quarter of its
+    # sigma on a side, and the move read back by linear interpolation where the surface passes.
+    sigma = scale * spacing.min() / spacing
+    block = np.maximum(1, (sigma / 2).astype(int))
+    coarse = tuple(int(n) for n in -(-np.asarray(shape) // block))
+    added = np.zeros(int(np.prod(coarse)), dtype=np.float64)
+    area = np.zeros_like(added)
+    for axis in range(3):
+        lo = tuple(slice(None, -1) if a == axis else slice(None) for a in range(3))
+        hi = tuple(slice(1, None) if a == axis else slice(None) for a in range(3))
+        crossed = inside[lo] != inside[hi]
+        if fixed is not None:
+            crossed &= ~(fixed[lo] | fixed[hi])
+        index = np.ravel_multi_index(np.nonzero(crossed), shape)  # the lower voxel of each crossed edge
+        lower_inside = inside.reshape(-1)[index]
+        own = np.where(lower_inside, index, index + strides[axis])
+        other = np.where(lower_inside, index + strides[axis], index)
+        t = flat[own] / (flat[own] - flat[other])
+        slant = np.abs(_unit_gradient(flat, own, shape, strides, spacing)[:, axis])
+        cell = spacing.prod() / spacing[axis]
+        into = np.ravel_multi_index(tuple(i // b for i, b in zip(np.unravel_index(own, shape), block)), coarse)
+        added += np.bincount(into, slant**2 * (0.5 - t) * spacing[axis] * cell, minlength=added.size)
+        area += np.bincount(into, slant * cell, minlength=area.size)
+    added = ndimage.gaussian_filter(added.reshape(coarse), sigma / block, mode="constant")
+    area = ndimage.gaussian_filter(area.reshape(coarse), sigma / block, mode="constant")
+    mean = np.zeros(coarse, dtype=np.float64)
+    np.divide(added, area, out=mean, where=area > 1e-6 * area.max())
+    move = np.zeros(shape, dtype=np.float32)
+    near = np.nonzero(np.abs(field) < 2 * spacing.max())  # the voxels whose values shape the 0-level
+    at = [(i + 0.5) / b - 0.5 for i, b in zip(near, block)]
+    move[near] = ndimage.map_coordinates(mean, at, order=1, mode="nearest")
+    return move
+
+
+def _unit_gradient(flat, index, shape, strides, spacing):
+    """The field's unit gradient at the flat ``index`` voxels (central differences, one-sided at the
+    array's faces)."""
+    ijk = np.stack(np.unravel_index(index, shape), axis=1)
+    gradient = np.empty((len(index), 3), dtype=np.float64)
+    for axis in range(3):
+        ahead = np.where(ijk[:, axis] + 1 < shape[axis], index + strides[axis], index)
+        behind = np.where(ijk[:, axis] > 0, index - strides[axis], index)
+        steps = (ahead - behind) // strides[axis]
+        gradient[:, axis] = (flat[ahead] - flat[behind]) / (np.maximum(steps, 1) * spacing[axis])
+    return gradient / np.maximum(np.linalg.norm(gradient, axis=1, keepdims=True), 1e-12)

@@ -78,16 +78,6 @@ def field_to_world_mesh(field, affine):
 SMOOTHING_REACH = int(np.ceil(4 * SMOOTHING_SIGMA * np.sqrt(2 * SMOOTHING_ROUNDS))) + 2
 
 
-def axis_sigmas(spacing):
-    """The smoothing's sigma along each axis of a grid of ``spacing``, in its voxels: `SMOOTHING_SIGMA`
-    along the finest axis, and along a coarser one less by the square root of how much coarser (a slice
-    twice as thick: 0.57 slices, 1.13 in-plane pixels), between the same number of voxels on every
-    axis, which rounds off what thick slices leave of a thin part, and the same length, which leaves
-    their terraces."""
-    spacing = np.asarray(spacing, dtype=float)
-    return tuple(float(s) for s in SMOOTHING_SIGMA * np.sqrt(spacing.min() / spacing))
-
-
 def smooth_field_to_mesh(field, mask, grid, fixed=None):
     """`field_to_mesh` of ``field`` smoothed under ``mask``'s constraint (`smooth_constrained`), the
     values of the ``fixed`` voxels (flat indices) held: the closed mesh of the voxel stage, whose
@@ -125,7 +115,7 @@ def mask_to_world_mesh(mask, affine, smooth=True):
     shift[:3, 3] = [b.start - SMOOTHING_REACH for b in box]
     field = voxel_spacing.signed_distance(part, spacing)
     if smooth:
-        field = smooth_constrained(field, part, unit=float(spacing.min()), sigma=axis_sigmas(spacing))
+        field = smooth_constrained(field, part, spacing=spacing)
     return field_to_world_mesh(field, affine @ shift)
 
 
@@ -169,7 +159,7 @@ def labels_to_world_meshes(labels, affine, which=None):
         box = bounding_box(mask, margin=reach)
         part = mask[box]
         fields[value] = (box, smooth_constrained(voxel_spacing.signed_distance(part, spacing), part,
-                                                 unit=float(spacing.min()), sigma=axis_sigmas(spacing)))
+                                                 spacing=spacing))
     meshes = {}
     for value in which:
         box, own = fields[value]
