@@ -67,7 +67,8 @@ def mask_field(mask):
     return reconstruct.union_of_balls(mask.shape, centres, radii)[1]
 
 
-def smooth_constrained(field, inside, fixed=None, spacing=(1.0, 1.0, 1.0), rounds=SMOOTHING_ROUNDS):
+def smooth_constrained(field, inside, fixed=None, spacing=(1.0, 1.0, 1.0), rounds=SMOOTHING_ROUNDS,
+                       match_volume=True):
     """The smoothest field near ``field`` whose sign at every voxel centre is ``inside``'s.
 
     A voxel mask is the sampling of a smooth surface: each set voxel's centre lies inside it, each
@@ -76,8 +77,11 @@ def smooth_constrained(field, inside, fixed=None, spacing=(1.0, 1.0, 1.0), round
     ``2 G f - G G f``: its response ``1 - (1 - g)^2`` is flat to fourth order, so a sphere or a
     cylinder keeps its radius where a Gaussian would move its surface in by its curvature times
     sigma squared), then puts every voxel centre back on its own side of the surface (at least
-    `CONSTRAINT_MARGIN` voxels' worth of field) and ``fixed`` voxels back to their values. The
-    marching cubes of the result encloses exactly the ``inside`` voxels, staircase removed.
+    `CONSTRAINT_MARGIN` voxels' worth of field) and ``fixed`` voxels back to their values. Pressed
+    against the inside centres where it rounds a convex staircase off, the surface then encloses less
+    than its voxels (a thin part across thick slices a tenth less): with ``match_volume``,
+    `match_voxel_volume` moves it out by what is missing there. The marching cubes of the result
+    encloses exactly the ``inside`` voxels, staircase removed.
 
     Parameters
     ----------
@@ -92,6 +96,10 @@ def smooth_constrained(field, inside, fixed=None, spacing=(1.0, 1.0, 1.0), round
         A voxel's size along each axis in the field's unit: sets the margin, the Gaussian's sigma along
         each axis (`axis_sigmas`) and the volume a voxel stands for.
     rounds : int
+    match_volume : bool
+        Move the surface to its voxels' volume (`match_voxel_volume`): for voxels that sample a smooth
+        surface (a label map). Not for the voxels a pruning left, whose removed bumps' stubs the
+        rounding takes down.
 
     Returns
     -------
@@ -125,8 +133,9 @@ def smooth_constrained(field, inside, fixed=None, spacing=(1.0, 1.0, 1.0), round
         once = ndimage.gaussian_filter(current, sigma, mode="nearest")
         current = 2 * once - ndimage.gaussian_filter(once, sigma, mode="nearest")
         _constrain(current, inside, original, fixed, spacing)
-    current += match_voxel_volume(current, inside, spacing, fixed)
-    _constrain(current, inside, original, fixed, spacing)
+    if match_volume:
+        current += match_voxel_volume(current, inside, spacing, fixed)
+        _constrain(current, inside, original, fixed, spacing)
     return current
 
 
