@@ -223,6 +223,21 @@ def test_immutable_files_and_folders_are_said(tmp_path):
     assert os.listdir(folder) == [] and sorted(os.listdir(tmp_path)) == ["locked", "out.ply"]
 
 
+@pytest.mark.parametrize("kind", ["fifo", "device"])
+def test_a_named_pipe_or_a_device_as_the_output_is_refused_and_left_as_it_is(tmp_path, kind):
+    """An atomic write would replace it with a regular file (a pipe another program reads, /dev/null)."""
+    if kind == "fifo":
+        target = tmp_path / "out.ply"
+        os.mkfifo(target)
+        refused(["denoise", sample_path(), target], "is a named pipe")
+        assert os.path.exists(target) and not os.path.isfile(target)
+    else:
+        target = tmp_path / "out.ply"
+        os.symlink("/dev/null", target)
+        refused(["denoise", sample_path(), target], "is a character device")
+        assert os.path.islink(target) and not os.path.isfile("/dev/null")
+
+
 def test_a_closed_pipe_ends_quietly():
     pipeline = f"set -o pipefail; {sys.executable} -m skelfilter.cli filters --meshlab | head -1"
     r = subprocess.run(["bash", "-c", pipeline], capture_output=True, text=True, timeout=300)

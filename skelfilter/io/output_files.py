@@ -10,6 +10,7 @@ left behind.
 
 import errno
 import os
+import stat
 import tempfile
 
 from skelfilter.errors import InputError, OutputError
@@ -65,10 +66,27 @@ def check_output(path, protect=(), kinds=None):
             raise InputError(f"{path}: unsupported format {ext!r} (use {', '.join(kinds)})")
     if os.path.isdir(path):
         raise InputError(f"{path}: is a folder")
+    special = _special_file(path)
+    if special:
+        raise InputError(f"{path}: is {special}; outputs are written to a new file moved onto the name, "
+                         "which would replace it (write to a regular file)")
     directory = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(directory):
         raise InputError(f"{path}: output folder does not exist")
     _check_writable(path, directory)
+
+
+_SPECIAL_FILES = ((stat.S_ISFIFO, "a named pipe"), (stat.S_ISCHR, "a character device"),
+                  (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+
+
+def _special_file(path):
+    """What kind of special file ``path`` is (following links), or None: a regular file, or none."""
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):
+        return None
+    return next((name for test, name in _SPECIAL_FILES if test(mode)), None)
 
 
 def _check_writable(path, directory):
