@@ -79,7 +79,11 @@ def test_fine_pass_on_smooths_a_clean_mesh_and_off_leaves_a_noisy_one():
     out = mesh_pipeline.denoise_mesh(clean, fine_pass="on")
     assert not np.array_equal(out.vertices, clean.vertices)
     noisy = _noisy(clean, 0.3)
-    assert np.array_equal(mesh_pipeline.denoise_mesh(noisy, fine_pass="off").vertices, noisy.vertices)
+    progress = Progress(enabled=False)
+    assert np.array_equal(mesh_pipeline.denoise_mesh(noisy, fine_pass="off", progress=progress).vertices,
+                          noisy.vertices)
+    said = " ".join(progress.notes)
+    assert "as it is (fine pass off)" in said and "smoothed" not in said  # says what ran
 
 
 def test_an_stl_file_is_denoised_like_the_obj(tmp_path):

@@ -116,7 +116,7 @@ def _denoise_unit(mesh, params, progress):
     worker_threads.start()
     skipped = None  # why the voxel stage does not run
     if routed and not roughness.skeleton_scale:
-        skipped = f"{roughness.describe()}: the input mesh comes back, smoothed by the fine pass"
+        skipped = f"{roughness.describe()}: the input mesh comes back, {_fine_pass_effect(params)}"
     elif routed:
         progress.note(f"{roughness.describe()}: the voxel stage measures it")
     preferred = output_choice.SKELETON_RESOLUTION if routed and roughness.skeleton_scale else None
@@ -139,7 +139,7 @@ def _denoise_unit(mesh, params, progress):
                     "voxelization lies on it): a new closed mesh of it would be the voxels it happens to enclose, "
                     "not the scan; output_mesh auto or input keeps the surface and smooths it")
             if not solid:
-                skipped = ("the input is an open surface: its own mesh comes back, smoothed by the fine pass "
+                skipped = (f"the input is an open surface: its own mesh comes back, {_fine_pass_effect(params)} "
                            "(the voxel stage needs a solid)")
                 if given:
                     skipped += f" (resolution {params.resolution} was used only to tell a solid from a surface)"
@@ -184,6 +184,11 @@ def _denoise_unit(mesh, params, progress):
             return marching_cubes.smooth_field_to_mesh(result.field, result.mask, grid, kept), None, result, grid
     vertices = _kept_vertices(mesh, (result, occupancy) if voxel_moves else None, params, grid, progress, roughness)
     return None, vertices, result, grid
+
+
+def _fine_pass_effect(params):
+    """What happens to an input mesh that comes back as itself, in the words of a note."""
+    return "as it is (fine pass off)" if params.fine_pass == "off" else "smoothed by the fine pass"
 
 
 def _smoothed_first(mesh, params, roughness, progress):
