@@ -222,6 +222,23 @@ def test_a_label_map_keeps_every_other_label(tmp_path):
     assert not (out[bump] == 3).any() and set(np.unique(out)) == {0, 3, 5, 7}
 
 
+@pytest.mark.parametrize("suffix", ["nii.gz", "tif"])
+def test_a_0_255_mask_comes_back_0_255(tmp_path, suffix):
+    """An 8-bit image mask (ImageJ/Fiji, many NIfTI exports) keeps its set value: a tool thresholding
+    at 128 sees the output's shape, not an empty mask."""
+    mask, _, bump = phantom((1.0, 1.0, 1.0))
+    image = np.where(mask, 255, 0).astype(np.uint8)
+    path = tmp_path / f"mask.{suffix}"
+    if suffix == "tif":
+        tifffile.imwrite(path, image)
+    else:
+        nibabel.save(nibabel.Nifti1Image(image, np.eye(4)), path)
+    denoise_file.denoise_file(path, tmp_path / f"out.{suffix}", PRUNE)
+    out = volume_files.load_volume(tmp_path / f"out.{suffix}").data
+    assert out.dtype == np.uint8 and set(np.unique(out)) == {0, 255}
+    assert not (out[bump] == 255).any() and (out == 255).sum() > 0.9 * mask.sum()
+
+
 @pytest.mark.parametrize("data, params, message", [
     (np.arange(27).reshape(3, 3, 3), {}, "holds 27 values, not a mask"),
     (np.zeros((8, 8, 8)), {}, "no voxel is set"),

@@ -156,6 +156,11 @@ def label_values(data):
     return labels
 
 
+def set_value(data, mask):
+    """The value the set voxels of a mask stored in ``data`` hold (1, or 255 for an 8-bit image mask)."""
+    return data[mask].flat[0]
+
+
 def merge_label(labels, before, after, label):
     """``labels`` with label ``label`` changed from ``before`` to ``after``: removed voxels become 0,
     added voxels take the label only where there was background; every other label stays."""

@@ -122,8 +122,12 @@ def _denoise_volume_file(input_path, output_path, kind_out, params, volume_param
                          "noise scale); lower `threshold`")
     summary = {"kind": "volume", "voxels_changed": result.voxels_changed}
     if kind_out == "volume":
-        data = (volume_files.merge_label(volume.data, mask, result.mask, volume_params.label)
-                if volume_params.label is not None else result.mask)
+        if volume_params.label is not None:
+            data = volume_files.merge_label(volume.data, mask, result.mask, volume_params.label)
+        elif volume_params.iso is None and volume.data.dtype != bool:  # a mask keeps its values (0/255 stays)
+            data = volume_files.merge_label(volume.data, mask, result.mask, volume_files.set_value(volume.data, mask))
+        else:
+            data = result.mask
         volume_files.save_volume(output_path, volume, data, protect=[input_path])
         if preview is not None:
             _preview_volume(preview, mask, result, volume.affine, params, progress)
