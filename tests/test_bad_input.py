@@ -533,3 +533,21 @@ def test_outputs_follow_the_umask(files, tmp_path):
         assert os.stat(tmp_path / "new.ply").st_mode & 0o777 == 0o604
     finally:
         os.umask(old)
+
+
+@pytest.mark.parametrize("layout", ["tabs", "comments at line ends", "both"])
+def test_an_obj_with_tabs_or_comments_at_line_ends_is_read(tmp_path, layout):
+    """Both are common in hand-written and exported OBJ files; trimesh's reader took neither (a raw
+    NumPy message, or no triangles)."""
+    tetra = trimesh.creation.icosphere(1)
+    lines = [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in tetra.vertices]
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in tetra.faces]
+    if layout != "tabs":
+        lines = [line + "  # a note" for line in lines]
+    text = "# an icosphere\n" + "\n".join(lines) + "\n"
+    if layout != "comments at line ends":
+        text = text.replace(" ", "\t")
+    path = tmp_path / "shape.obj"
+    path.write_text(text)
+    mesh = mesh_files.load_mesh(path)
+    assert np.allclose(mesh.vertices, tetra.vertices, atol=1e-6) and np.array_equal(mesh.faces, tetra.faces)

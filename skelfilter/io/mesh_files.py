@@ -1,6 +1,7 @@
 """Mesh files in and out (any format trimesh reads/writes), validated and written atomically."""
 
 import glob
+import io
 import logging
 import os
 import re
@@ -37,8 +38,12 @@ def load_mesh(path):
     if os.path.getsize(path) == 0:
         raise InputError(f"{path}: the file is empty")
     options, wedge_uv = _ply_options(path) if ext == "ply" else ({}, False)
+    plain = _plain_obj(path) if ext == "obj" else None
     try:
-        if _utf8(path):
+        if plain is not None:  # read from memory, its materials from its folder
+            mesh = trimesh.load(io.BytesIO(plain), file_type=ext, force="mesh", process=False,
+                                resolver=trimesh.resolvers.FilePathResolver(os.path.dirname(os.path.abspath(path))))
+        elif _utf8(path):
             mesh = trimesh.load(path, file_type=ext, force="mesh", process=False, **options)
         else:  # trimesh hashes the name as UTF-8: such a file is read from an open file, its folder beside
             with open(path, "rb") as f:
@@ -56,6 +61,16 @@ def load_mesh(path):
         log.warning("%s: its per-wedge texture coordinates are not kept (the mesh is read without them)", path)
         mesh = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
     return validate_mesh(mesh, path)
+
+
+def _plain_obj(path):
+    """An OBJ file's text with tabs as spaces and comments at line ends (``v 0 0 0 # corner``) removed,
+    which trimesh's reader does not take; None where it has neither."""
+    with open(path, "rb") as f:
+        text = f.read()
+    if b"\t" not in text and not re.search(rb"[^\s#][ \t]*#", text):
+        return None
+    return re.sub(rb"[ \t]+#[^\r\n]*", b"", text.replace(b"\t", b" "))
 
 
 def _obj_sidecar_problems(path):
