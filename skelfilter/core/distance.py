@@ -58,16 +58,17 @@ def feature_points(features, voxels):
 
 
 def gradient_at(distance, voxels):
-    """Central-difference gradient of ``distance`` at flat voxel indices, shape ``(n, 3)``.
-
-    The voxels must not lie on the volume's faces (the pipeline pads).
-    """
+    """Central-difference gradient of ``distance`` at flat voxel indices, shape ``(n, 3)``, in voxel
+    units; one-sided on the volume's faces."""
     flat = distance.reshape(-1)
     shape = distance.shape
     strides = (shape[1] * shape[2], shape[2], 1)
+    ijk = np.unravel_index(voxels, shape)
     g = np.empty((len(voxels), 3), dtype=np.float32)
     for axis, s in enumerate(strides):
-        g[:, axis] = 0.5 * (flat[voxels + s] - flat[voxels - s])
+        ahead = np.where(ijk[axis] + 1 < shape[axis], voxels + s, voxels)
+        behind = np.where(ijk[axis] > 0, voxels - s, voxels)
+        g[:, axis] = (flat[ahead] - flat[behind]) / np.maximum((ahead - behind) // s, 1)
     return g
 
 

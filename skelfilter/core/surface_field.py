@@ -6,6 +6,7 @@ import numpy as np
 from scipy import ndimage
 
 from skelfilter.core import reconstruct
+from skelfilter.core.distance import gradient_at
 
 # Balls of radius D touch the centres of the nearest outside voxels; the
 # boundary between inside and outside voxel centres is half a voxel further in.
@@ -205,7 +206,8 @@ def match_voxel_volume(field, inside, spacing, fixed=None, scale=VOLUME_MATCH_SC
         own = np.where(lower_inside, index, index + strides[axis])
         other = np.where(lower_inside, index + strides[axis], index)
         t = flat[own] / (flat[own] - flat[other])
-        slant = np.abs(_unit_gradient(flat, own, shape, strides, spacing)[:, axis])
+        normal = gradient_at(field, own) / spacing
+        slant = np.abs(normal[:, axis]) / np.maximum(np.linalg.norm(normal, axis=1), 1e-12)
         cell = spacing.prod() / spacing[axis]
         into = np.ravel_multi_index(tuple(i // b for i, b in zip(np.unravel_index(own, shape), block)), coarse)
         added += np.bincount(into, slant**2 * (0.5 - t) * spacing[axis] * cell, minlength=added.size)
@@ -219,16 +221,3 @@ def match_voxel_volume(field, inside, spacing, fixed=None, scale=VOLUME_MATCH_SC
     at = [(i + 0.5) / b - 0.5 for i, b in zip(near, block)]
     move[near] = ndimage.map_coordinates(mean, at, order=1, mode="nearest")
     return move
-
-
-def _unit_gradient(flat, index, shape, strides, spacing):
-    """The field's unit gradient at the flat ``index`` voxels (central differences, one-sided at the
-    array's faces)."""
-    ijk = np.stack(np.unravel_index(index, shape), axis=1)
-    gradient = np.empty((len(index), 3), dtype=np.float64)
-    for axis in range(3):
-        ahead = np.where(ijk[:, axis] + 1 < shape[axis], index + strides[axis], index)
-        behind = np.where(ijk[:, axis] > 0, index - strides[axis], index)
-        steps = (ahead - behind) // strides[axis]
-        gradient[:, axis] = (flat[ahead] - flat[behind]) / (np.maximum(steps, 1) * spacing[axis])
-    return gradient / np.maximum(np.linalg.norm(gradient, axis=1, keepdims=True), 1e-12)
