@@ -38,7 +38,8 @@ def load_mesh(path):
     if os.path.getsize(path) == 0:
         raise InputError(f"{path}: the file is empty")
     options, wedge_uv = _ply_options(path) if ext == "ply" else ({}, False)
-    plain = _plain_obj(path) if ext == "obj" else None
+    text = _read(path) if ext == "obj" else None
+    plain = _plain_obj(text) if ext == "obj" else None
     try:
         if plain is not None:  # read from memory, its materials from its folder
             mesh = trimesh.load(io.BytesIO(plain), file_type=ext, force="mesh", process=False,
@@ -55,7 +56,7 @@ def load_mesh(path):
     if problem:
         raise InputError(f"{path}: malformed {ext.upper()} file ({problem})")
     if ext == "obj":
-        for line in _obj_sidecar_problems(path):
+        for line in _obj_sidecar_problems(path, text):
             log.warning("%s: %s", path, line)
     if wedge_uv:  # the texture coordinates were read on the vertices, wrongly: the geometry alone
         log.warning("%s: its per-wedge texture coordinates are not kept (the mesh is read without them)", path)
@@ -63,23 +64,24 @@ def load_mesh(path):
     return validate_mesh(mesh, path)
 
 
-def _plain_obj(path):
-    """An OBJ file's text with tabs as spaces and comments at line ends (``v 0 0 0 # corner``) removed,
-    which trimesh's reader does not take; None where it has neither."""
+def _read(path):
     with open(path, "rb") as f:
-        text = f.read()
+        return f.read()
+
+
+def _plain_obj(text):
+    """An OBJ file's ``text`` with tabs as spaces and comments at line ends (``v 0 0 0 # corner``)
+    removed, which trimesh's reader does not take; None where it has neither."""
     if b"\t" not in text and not re.search(rb"[^\s#][ \t]*#", text):
         return None
     return re.sub(rb"[ \t]+#[^\r\n]*", b"", text.replace(b"\t", b" "))
 
 
-def _obj_sidecar_problems(path):
+def _obj_sidecar_problems(path, text):
     """What of an OBJ file's materials is not read, in words: a material library (``mtllib``) or a
     texture (``map_Kd``) that is missing, lies outside the OBJ's folder, or has a name that is not
     UTF-8. trimesh reads the mesh without them and says so only in a debug log."""
     folder = os.path.realpath(os.path.dirname(os.path.abspath(path)))
-    with open(path, "rb") as f:
-        text = f.read()
     problems = []
     for library in re.findall(rb"^[ \t]*mtllib[ \t]+(.+?)[ \t]*\r?$", text, re.M):
         target, problem = _sidecar(folder, library)
