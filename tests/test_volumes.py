@@ -321,3 +321,19 @@ def test_every_volume_format_takes_every_real_type(tmp_path, dtype, label):
     np.save(tmp_path / "complex.npy", labels.astype(np.complex64))
     with pytest.raises(InputError, match="is complex"):
         denoise_file.denoise_file(tmp_path / "complex.npy", tmp_path / "c.npy", PRUNE)
+
+
+def test_an_ome_tiff_keeps_its_physical_voxel_size(tmp_path):
+    """A microscope's OME-TIFF states its voxel size in the OME-XML (PhysicalSizeX/Y/Z), not as ImageJ
+    metadata: it is the spacing, and a TIFF output states it again."""
+    mask, _, bump = phantom((1.0, 1.0, 4.0))
+    tifffile.imwrite(tmp_path / "in.ome.tif", np.ascontiguousarray(mask.astype(np.uint8).T), ome=True,
+                     metadata={"axes": "ZYX", "PhysicalSizeX": 0.25, "PhysicalSizeY": 0.25, "PhysicalSizeZ": 1.0,
+                               "PhysicalSizeXUnit": "µm", "PhysicalSizeYUnit": "µm", "PhysicalSizeZUnit": "µm"})
+    source = volume_files.load_volume(tmp_path / "in.ome.tif")
+    assert np.allclose(source.spacing, (0.25, 0.25, 1.0)) and np.array_equal(source.data.astype(bool), mask)
+    denoise_file.denoise_file(tmp_path / "in.ome.tif", tmp_path / "out.tif", PRUNE)
+    back = volume_files.load_volume(tmp_path / "out.tif")
+    assert np.allclose(back.spacing, (0.25, 0.25, 1.0)) and back.data.shape == mask.shape
+    with tifffile.TiffFile(tmp_path / "out.tif") as tif:
+        assert tif.is_ome and 'PhysicalSizeZ="1.0"' in tif.ome_metadata

@@ -1,5 +1,8 @@
 """TIFF stacks (``.tif``, ``.tiff``) through tifffile: pages ``(z, y, x)`` read as ``(x, y, z)``; the
-spacing from the ImageJ metadata when present."""
+spacing from the ImageJ metadata or the OME-XML (``PhysicalSizeX/Y/Z``, in micrometres) when present,
+and written back the same way."""
+
+import xml.etree.ElementTree as ElementTree
 
 import numpy as np
 
@@ -14,19 +17,44 @@ def _read_tiff(path):
     with tifffile.TiffFile(path) as tif:
         pages = tif.asarray()
         meta = dict(tif.imagej_metadata or {})
+        ome = _ome_sizes(tif.ome_metadata) if tif.is_ome else None
         page = tif.pages[0]
         resolution = [page.tags.get(name) for name in ("XResolution", "YResolution")]
     spacing = (1.0, 1.0, 1.0)
-    if meta:  # ImageJ stores the pixel size as the resolution; other TIFFs hold dots per inch
+    if ome:
+        spacing, meta = ome, {"ome": True}
+    elif meta:  # ImageJ stores the pixel size as the resolution; other TIFFs hold dots per inch
         xy = [(tag.value[1] / tag.value[0]) if tag is not None and tag.value[0] else 1.0 for tag in resolution]
         spacing = (xy[0], xy[1], float(meta.get("spacing", 1.0)))
     return Volume(np.ascontiguousarray(np.transpose(pages)), np.diag([*spacing, 1.0]), "tiff", meta)
+
+
+# OME's length units in micrometres, the unit its sizes default to.
+_OME_MICROMETRES = {"nm": 1e-3, "Å": 1e-4, "µm": 1.0, "um": 1.0, "mm": 1e3, "cm": 1e4, "m": 1e6}
+
+
+def _ome_sizes(xml):
+    """The voxel size (x, y, z) in micrometres an OME-XML text states (1 where it states none), or
+    None when it states none at all or in a unit that is no length."""
+    pixels = next((e for e in ElementTree.fromstring(xml).iter() if e.tag.rsplit("}", 1)[-1] == "Pixels"), None)
+    if pixels is None or not any(f"PhysicalSize{axis}" in pixels.attrib for axis in "XYZ"):
+        return None
+    units = [_OME_MICROMETRES.get(pixels.get(f"PhysicalSize{axis}Unit", "µm")) for axis in "XYZ"]
+    if None in units:
+        return None
+    return tuple(float(pixels.get(f"PhysicalSize{axis}", 1.0)) * unit for axis, unit in zip("XYZ", units))
 
 
 def _write_tiff(tmp, like, data):
     tifffile = need("tifffile", "TIFF volumes")
 
     spacing = like.spacing
+    if like.format == "tiff" and (like.header or {}).get("ome"):
+        sizes = {f"PhysicalSize{axis}": float(size) for axis, size in zip("XYZ", spacing)}
+        units = {f"PhysicalSize{axis}Unit": "µm" for axis in "XYZ"}
+        tifffile.imwrite(tmp, np.ascontiguousarray(np.transpose(data)), ome=True,
+                         metadata={"axes": "ZYX", **sizes, **units})
+        return
     meta = dict(like.header) if like.format == "tiff" else {}
     meta.pop("min", None), meta.pop("max", None)  # the input's display range, not the output's
     meta.update(spacing=float(spacing[2]), axes="ZYX")
