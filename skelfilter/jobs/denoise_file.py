@@ -96,6 +96,8 @@ def denoise_file(input_path, output_path, params, volume_params=None, save_skele
     mesh = mesh_files.load_mesh(input_path)
     mesh_files.check_mesh_output(mesh, output_path)
     out, result, grid = mesh_pipeline.denoise_mesh_detailed(mesh, params, progress)
+    if out.units is None:  # a new closed mesh is in the input's unit
+        out.units = mesh.units
     if save_skeleton and not result.stages:
         raise InputError(f"`save_skeleton`: no skeleton was computed ({progress.notes[-1]}); "
                          "`output_mesh` closed runs the voxel stage")
