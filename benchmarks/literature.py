@@ -45,7 +45,7 @@ sys.path.insert(0, ROOT)
 import shapes  # noqa: E402  (benchmarks/shapes.py)
 
 from skelfilter.errors import SkelfilterError  # noqa: E402
-from skelfilter.evaluation import metrics  # noqa: E402
+from skelfilter.evaluation import camera, metrics  # noqa: E402
 from skelfilter.evaluation.comparison.methods import meshlib_denoise, pygel3d_smooth  # noqa: E402
 from skelfilter.io import mesh_files as io  # noqa: E402
 from skelfilter.mesh import pipeline as mesh_pipeline  # noqa: E402
@@ -194,20 +194,20 @@ def pictures_of(name, columns, row, path):
 
     view, up = PICTURES[name]
     meshes = [mesh for _, mesh in columns]
-    overview = render.camera_for(meshes[-1], view, up)
-    cameras = (overview, render.closeup_camera(meshes[-1], overview))
+    overview = camera.camera_for(meshes[-1], view, up)
+    cameras = (overview, camera.closeup_camera(meshes[-1], overview))
     labels = dict(COLUMNS, skelfilter="skelfilter")
     titles = [f"{labels[key]} {_cell(row[key])}" for key, _ in columns[:-1]] + ["clean"]
     fig, axes = plt.subplots(2, len(meshes), figsize=(CELL[0] / 100 * len(meshes), 2 * CELL[1] / 100 + 0.6), dpi=100)
     with tempfile.TemporaryDirectory() as work:
-        for r, camera in enumerate(cameras):
+        for r, cell_camera in enumerate(cameras):
             for c, (mesh, title) in enumerate(zip(meshes, titles)):
                 ax = axes[r, c]
                 ax.set_axis_off()
                 if mesh is None:
                     continue
                 cell = os.path.join(work, f"{r}-{c}.png")
-                render.render(mesh, camera, cell, CELL)
+                render.render(mesh, cell_camera, cell, CELL)
                 ax.imshow(plt.imread(cell))
                 if r == 0:
                     ax.set_title(title, fontsize=9)

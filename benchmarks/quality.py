@@ -39,7 +39,7 @@ import trimesh
 from quality_tables import SPLITS
 
 from skelfilter.core.synthetic_noise import NoiseResult
-from skelfilter.evaluation import metrics
+from skelfilter.evaluation import camera, metrics
 from skelfilter.evaluation.comparison import render, report
 from skelfilter.evaluation.comparison.config import Method, slug
 from skelfilter.evaluation.comparison.methods import run_method
@@ -568,7 +568,7 @@ def write_sheet(results, cases, setup, out_dir, say):
     for case in sheet_cases(cases):
         prep = load_case(case, setup)
         shape = shapes.SHAPES[case.shape]
-        camera = render.camera_for(prep.clean, shape.view, shape.up)
+        sheet_camera = camera.camera_for(prep.clean, shape.view, shape.up)
         cells = []
         for column in columns:
             entry = by_name[case.name]["methods"].get(column, {})
@@ -586,7 +586,7 @@ def write_sheet(results, cases, setup, out_dir, say):
                 cells.append({})
                 continue
             path = os.path.join(folder, f"{slug(case.name)}-{slug(column)}.png")
-            render.render(mesh, camera, path, SHEET_CELL)
+            render.render(mesh, sheet_camera, path, SHEET_CELL)
             cells.append({"images": {"sheet": os.path.relpath(path, out_dir)}})
         rows.append({"name": f"{case.shape}, {case.kind} (seed {case.seed})", "methods": cells})
         say(f"sheet: {case.name}")

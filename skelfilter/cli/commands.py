@@ -14,7 +14,7 @@ import sys
 import warnings
 
 from skelfilter.cli import parser
-from skelfilter.errors import InputError, SkelfilterError
+from skelfilter.errors import InputError, ParameterError, SkelfilterError
 from skelfilter.io import formats, mesh_files, output_files
 from skelfilter.jobs import denoise_file
 from skelfilter.mesh import pipeline as mesh_pipeline
@@ -167,17 +167,44 @@ def _compare(args):
 
     for module in COMPARE_MODULES:
         need(module, "skelfilter compare", extra="compare")
-    from skelfilter.evaluation.comparison.config import load_config
+    from skelfilter.evaluation.comparison.config import config_for_meshes, load_config
     from skelfilter.evaluation.comparison.run import Reporter, run_compare
 
-    if args.config is not None and not os.path.isfile(args.config):
-        raise InputError(f"{args.config}: no such configuration file")
     if not args.out:
         raise InputError("--out: the output folder's name is empty")
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise InputError(f"{args.out}: exists and is not a folder")
-    config = load_config(args.config, jobs=args.jobs, resolution=args.resolution)
+    overrides = {"jobs": args.jobs, "resolution": args.resolution}
+    configs = [p for p in args.inputs if str(p).lower().endswith(".toml")]
+    if configs:
+        if len(args.inputs) > 1 or args.clean is not None:
+            raise ParameterError("compare: a TOML configuration names its own meshes; give it alone")
+        if not os.path.isfile(configs[0]):
+            raise InputError(f"{configs[0]}: no such configuration file")
+        config = load_config(configs[0], **overrides)
+    elif args.inputs:
+        config = config_for_meshes(_meshes(args.inputs), clean=args.clean, **overrides)
+    else:
+        if args.clean is not None:
+            raise ParameterError("--clean: give the noisy mesh it belongs to")
+        config = load_config(None, **overrides)
     run_compare(config, args.out, Reporter(enabled=args.progress is not False))
+
+
+def _meshes(inputs):
+    """The mesh files among ``inputs`` (files, folders, patterns); what else a folder holds is left."""
+    from skelfilter.jobs.batch_files import expand_inputs
+
+    found = expand_inputs(inputs)
+    meshes = [p for p in found if formats.input_kind(p) == "mesh"]
+    others = sorted(set(found) - set(meshes))
+    named = [p for p in others if any(os.path.abspath(str(i)) == p for i in inputs)]
+    if named:
+        raise InputError(f"{named[0]}: not a mesh; compare takes meshes (volumes and point clouds: "
+                         "skelfilter denoise)")
+    if not meshes:
+        raise InputError("compare: no mesh among the inputs")
+    return meshes
 
 
 # Library messages name parameters backticked (`threshold`); the CLI's names for them are its flags.

@@ -152,9 +152,13 @@ def build_parser(full_help=False):
     lst.add_argument("--markdown", action="store_true", help="print docs/filters.md")
 
     cmp = sub.add_parser("compare", help="run skelfilter and MeshLab's filters on the same noisy meshes "
-                         "and write a report (thesis §8.2)")
-    cmp.add_argument("config", nargs="?", help="TOML configuration (default: the thesis' protocol, "
-                     "skelfilter/evaluation/comparison/default.toml)")
+                         "and write a report with pictures and tables (thesis §8.2)")
+    cmp.add_argument("inputs", nargs="*", metavar="MESH|CONFIG",
+                     help="noisy meshes or folders of them (each as it is: skelfilter's default beside "
+                     "MeshLab's Laplacian, Two-step, MLS and RIMLS), or one TOML configuration for full "
+                     "control; none: the thesis' protocol (skelfilter/evaluation/comparison/default.toml)")
+    cmp.add_argument("--clean", metavar="REF", help="the clean mesh of the one noisy mesh given: the full "
+                     "metrics against it (without it: roughness, distance moved, volume change)")
     cmp.add_argument("--out", default="comparison-output", help="output folder (default: comparison-output)")
     cmp.add_argument("--jobs", type=int, help="MeshLab/MeshLib child processes at once (overrides [run] jobs)")
     cmp.add_argument("--resolution", type=int, help="noise grid resolution (overrides [run] resolution)")

@@ -1,7 +1,8 @@
-"""The comparison's configuration: a TOML file of cases (models and noise) and methods.
+"""The comparison's configuration: a TOML file of cases (models and noise) and methods, or meshes alone.
 
 See ``default.toml`` (the thesis' protocol, §8.2.1) for every key. Paths in the file are relative to
-the file itself. Errors name the file and the offending entry.
+the file itself. Errors name the file and the offending entry. `config_for_meshes` makes the
+configuration of a user's own meshes: skelfilter's default beside MeshLab's filters.
 """
 
 import math
@@ -21,15 +22,16 @@ NOISE_KEYS = ("p", "r", "h", "l", "dents")
 
 @dataclass(frozen=True)
 class Case:
-    """One row of the comparison: a clean model and how its noisy version is made."""
+    """One row of the comparison: a clean model and how its noisy version is made, or a given noisy
+    mesh with its clean mesh, or alone."""
 
     name: str
     model: str | None = None  # builtin name or path of the clean mesh (synthetic noise)
     noise: NoiseParams | None = None
-    noisy: str | None = None  # path of a given noisy mesh (real noisy/clean pair)
-    clean: str | None = None
-    view: tuple = (1.0, 0.8, 1.2)  # camera direction, from the model's centre towards the eye
-    up: tuple = (0.0, 1.0, 0.0)
+    noisy: str | None = None  # path of a given noisy mesh
+    clean: str | None = None  # its clean mesh; None: measured by what needs no reference
+    view: tuple | None = None  # camera direction, from the model's centre towards the eye; None: chosen
+    up: tuple | None = None  # None: the model's format's convention (`camera.up_for`)
 
     @property
     def synthetic(self):
@@ -48,8 +50,8 @@ class Method:
 
 @dataclass(frozen=True)
 class Config:
-    path: str
-    resolution: int  # voxels along the longest side: noise grid, skelfilter grid, metric unit
+    path: str | None  # None: made by `config_for_meshes`
+    resolution: int  # voxels along the longest side: noise grid, metric unit (and skelfilter's grid)
     seed: int
     max_faces: int  # the noisy marching-cubes mesh is decimated to at most this many faces (0: never)
     jobs: int
@@ -59,10 +61,12 @@ class Config:
     methods: tuple
     sweep_case: str | None
     sweep_thresholds: tuple
+    skelfilter_at_run_resolution: bool = True  # False: skelfilter's methods choose their grid as the CLI does
 
     def denoise_params(self, method):
         """The DenoiseParams of a skelfilter method (resolution defaults to the run's)."""
-        return DenoiseParams(**{"resolution": self.resolution, **(method.params or {})})
+        run = {"resolution": self.resolution} if self.skelfilter_at_run_resolution else {}
+        return DenoiseParams(**{**run, **(method.params or {})})
 
 
 def slug(name):
@@ -123,13 +127,15 @@ def _case(path, i, table, run):
             kwargs["noise"] = NoiseParams(resolution=run["resolution"], seed=run["seed"], **noise)
         except (ParameterError, TypeError) as exc:
             _fail(path, f"{where}: noise", str(exc))
-    elif "noisy" in table and "clean" in table:
+    elif "noisy" in table:
         if "noise" in table:
-            _fail(path, where, "a real noisy/clean pair takes no noise settings")
+            _fail(path, where, "a given noisy mesh takes no noise settings")
         kwargs["noisy"] = _file(path, f"{where}: noisy", table["noisy"])
-        kwargs["clean"] = _file(path, f"{where}: clean", table["clean"])
+        if "clean" in table:
+            kwargs["clean"] = _file(path, f"{where}: clean", table["clean"])
     else:
-        _fail(path, where, "needs model (builtin cube or fandisk, or a mesh path) or noisy and clean paths")
+        _fail(path, where, "needs model (builtin cube or fandisk, or a mesh path) or a noisy mesh's path "
+              "(with its clean mesh's, if there is one)")
     return Case(**kwargs)
 
 
@@ -239,13 +245,7 @@ def load_config(path=None, **overrides):
     methods = tuple(_method(path, i, t, run) for i, t in enumerate(data.get("method", [])))
     if not cases or not methods:
         _fail(path, "top level", "needs at least one [[case]] and one [[method]]")
-    for kind, items in (("case", cases), ("method", methods)):
-        folders = {"input-noisy": "the noisy input's mesh"} if kind == "method" else {}
-        for x in items:
-            other = folders.setdefault(slug(x.name), repr(x.name))
-            if other != repr(x.name):
-                _fail(path, "top level", f"{kind} names {other} and {x.name!r} give one file name "
-                      f"{slug(x.name)!r}; rename one")
+    _check_unique(path, cases, methods)
     sweep = data.get("sweep", {})
     _check_keys(path, "[sweep]", sweep, ("case", "thresholds"))
     sweep_case = sweep.get("case")
@@ -261,6 +261,79 @@ def load_config(path=None, **overrides):
                   jobs=run["jobs"], timeout=float(run["timeout"]), image_size=tuple(run["image_size"]),
                   cases=cases, methods=methods, sweep_case=sweep_case,
                   sweep_thresholds=tuple(float(t) for t in thresholds))
+
+
+def _check_unique(path, cases, methods):
+    """Every case its own folder, every method its own file names."""
+    for kind, items in (("case", cases), ("method", methods)):
+        folders = {"input-noisy": "the noisy input's mesh"} if kind == "method" else {}
+        for x in items:
+            other = folders.setdefault(slug(x.name), repr(x.name))
+            if other != repr(x.name):
+                _fail(path, "top level", f"{kind} names {other} and {x.name!r} give one file name "
+                      f"{slug(x.name)!r}; rename one")
+
+
+# MeshLab's filters beside skelfilter on a user's meshes, with the thesis' parameters (§8.2.1).
+MESHLAB_SCRIPTS = (("Laplacian", "laplacian_surface_preserving.mlx"), ("Two-step", "two_step.mlx"),
+                   ("MLS (APSS)", "mls_apss.mlx"), ("RIMLS", "rimls.mlx"))
+
+
+def _case_names(paths):
+    """A case name per mesh: its file name, numbered where two meshes share one."""
+    names, seen = [], {}
+    for path in paths:
+        name = os.path.basename(path)
+        seen[slug(name)] = seen.get(slug(name), 0) + 1
+        names.append(name if seen[slug(name)] == 1 else f"{name} ({seen[slug(name)]})")
+    return names
+
+
+def config_for_meshes(paths, clean=None, **overrides):
+    """The comparison of a user's own meshes: each as it is, skelfilter's default (its grid chosen as
+    the CLI chooses it) beside MeshLab's Laplacian, Two-step, MLS and RIMLS filters.
+
+    Parameters
+    ----------
+    paths : sequence of str
+        Mesh files.
+    clean : str, optional
+        The clean mesh of the one mesh in ``paths``: the full metrics against it. Without it each
+        result is measured by what needs no reference (roughness, how far it moved, volume change).
+    **overrides
+        Values of the ``[run]`` table (``jobs``, ``resolution``: the metrics' grid, ...).
+
+    Returns
+    -------
+    Config
+
+    Raises
+    ------
+    ParameterError
+        ``clean`` with more than one mesh, a bad ``[run]`` value.
+    InputError
+        A path that is not a file.
+    """
+    paths = [str(p) for p in paths]
+    if not paths:
+        raise ParameterError("compare: no mesh given")
+    if clean is not None and len(paths) != 1:
+        raise ParameterError(f"--clean: a clean mesh belongs to one noisy mesh, got {len(paths)} meshes")
+    for file in paths + ([str(clean)] if clean is not None else []):
+        if not os.path.isfile(file):
+            raise InputError(f"{file}: no such file")
+    run = _run_table("compare", {k: v for k, v in overrides.items() if v is not None})
+    cases = tuple(Case(name=name, noisy=os.path.abspath(p), clean=None if clean is None else os.path.abspath(clean))
+                  for name, p in zip(_case_names(paths), paths))
+    scripts = resources.files("skelfilter.evaluation.comparison") / "scripts"
+    methods = ((Method("input", "noisy"), Method("skelfilter", "skelfilter", params={}))
+               + tuple(Method(name, "meshlab", script=str(scripts / file)) for name, file in MESHLAB_SCRIPTS)
+               + ((Method("clean", "clean"),) if clean is not None else ()))
+    _check_unique("compare", cases, methods)
+    return Config(path=None, resolution=run["resolution"], seed=run["seed"], max_faces=run["max_faces"],
+                  jobs=run["jobs"], timeout=float(run["timeout"]), image_size=tuple(run["image_size"]),
+                  cases=cases, methods=methods, sweep_case=None, sweep_thresholds=(),
+                  skelfilter_at_run_resolution=False)
 
 
 def as_dict(config):

@@ -27,6 +27,7 @@ class Outcome:
     seconds: float
     error: str | None = None
     route: str | None = None  # skelfilter: what it ran and why, as it tells a user
+    filtered: bool = True  # False for the references (the noisy input, the clean mesh)
 
 
 def run_method(method, noisy, clean, config):
@@ -52,7 +53,7 @@ def run_method(method, noisy, clean, config):
     except (SkelfilterError, MemoryError) as exc:
         return Outcome(None, time.perf_counter() - start, str(exc) or type(exc).__name__)
     route = "; ".join(progress.notes) if method.kind == "skelfilter" else None
-    return Outcome(mesh, time.perf_counter() - start, route=route)
+    return Outcome(mesh, time.perf_counter() - start, route=route, filtered=method.kind not in ("noisy", "clean"))
 
 
 def _meshlib_child(workdir):

@@ -8,11 +8,10 @@ has one), so differences between cells are differences between meshes.
 import contextlib
 import ctypes.util
 import os
-from dataclasses import dataclass
 
 import numpy as np
 
-from skelfilter.evaluation.metrics import sharp_edges
+from skelfilter.evaluation.camera import VIEW_ANGLE
 from skelfilter.runtime.extras import need
 from skelfilter.runtime.signals import deferred
 
@@ -21,53 +20,33 @@ _WINDOW_ENV = "VTK_DEFAULT_OPENGL_WINDOW"
 
 FEATURE_ANGLE = 45.0  # degrees
 MESH_COLOUR = (0.74, 0.78, 0.88)
-VIEW_ANGLE = 30.0  # degrees, the camera's vertical field of view
-CLOSEUP = 0.28  # close-up distance as a share of the overview's
 
 
-@dataclass(frozen=True)
-class Camera:
-    position: tuple
-    focal_point: tuple
-    up: tuple
+def _window_class():
+    """The render window VTK should make here, or None to let VTK choose.
 
-    def as_pyvista(self):
-        return [self.position, self.focal_point, self.up]
-
-
-def camera_for(mesh, view, up):
-    """A camera looking at the whole of ``mesh`` from direction ``view`` (centre -> eye)."""
-    view = np.asarray(view, dtype=float) / np.linalg.norm(view)
-    lo, hi = mesh.bounds
-    centre, radius = (lo + hi) / 2, np.linalg.norm(hi - lo) / 2
-    distance = 1.05 * radius / np.sin(np.radians(VIEW_ANGLE / 2))
-    return Camera(tuple(centre + distance * view), tuple(centre), tuple(map(float, up)))
-
-
-def closeup_camera(clean, camera, angle=30.0):
-    """A close-up of the clean mesh's sharp edge nearest to ``camera`` (its most dihedral edge when
-    none exceeds ``angle``), seen from the same direction."""
-    edges = sharp_edges(clean, angle)
-    if len(edges) == 0:
-        edges = clean.face_adjacency_edges[[np.argmax(clean.face_adjacency_angles)]]
-    mid = clean.vertices[edges].mean(axis=1)
-    eye, focus = np.asarray(camera.position), np.asarray(camera.focal_point)
-    toward = (eye - focus) / np.linalg.norm(eye - focus)
-    target = mid[np.argmax(mid @ toward)]
-    distance = CLOSEUP * np.linalg.norm(eye - focus)
-    return Camera(tuple(target + distance * toward), tuple(target), camera.up)
+    With a display VTK's own choice (X) works. Without one VTK tries X first and prints "bad X server
+    connection" (in terminal colour codes) before it falls back; so OSMesa (the system library
+    libosmesa6, rendering on the CPU) is named where it is installed, else EGL (Mesa's llvmpipe
+    renders on the CPU too, a GPU's driver on it)."""
+    if os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"):
+        return None
+    for library, window in (("OSMesa", "vtkOSOpenGLRenderWindow"), ("EGL", "vtkEGLRenderWindow")):
+        if ctypes.util.find_library(library):
+            return window
+    return None
 
 
 @contextlib.contextmanager
 def _offscreen_window():
-    """OSMesa renders on the CPU without an X server or a GPU (the system library libosmesa6); without
-    it VTK tries X, then EGL (Mesa's llvmpipe also renders on the CPU). VTK is told so while a
-    picture is drawn; the process's environment is as it was afterwards, and a choice of the user's
-    (the variable set) stands."""
-    if os.environ.get(_WINDOW_ENV) is not None or not ctypes.util.find_library("OSMesa"):
+    """VTK is told which render window to make (`_window_class`) while a picture is drawn; the
+    process's environment is as it was afterwards, and a choice of the user's (the variable set)
+    stands."""
+    window = _window_class()
+    if os.environ.get(_WINDOW_ENV) is not None or window is None:
         yield
         return
-    os.environ[_WINDOW_ENV] = "vtkOSOpenGLRenderWindow"
+    os.environ[_WINDOW_ENV] = window
     try:
         yield
     finally:

@@ -28,15 +28,22 @@ METRICS = {
     "shrinkage": ("clean lost", -1, "{:.2%}"),
     "sharp_edge_mean": ("sharp-edge error (vox)", -1, "{:.2f}"),
     "sharp_edge_max": ("sharp-edge max (vox)", -1, "{:.2f}"),
+    # with no clean mesh: what each filter did to the input (`metrics.change_measures`); none is better
+    "roughness_deg": ("roughness (°)", 0, "{:.1f}"),
+    "moved_mean": ("moved, mean (vox)", 0, "{:.3f}"),
+    "moved_max": ("moved, max (vox)", 0, "{:.2f}"),
+    "normal_change_deg": ("normals turned (°)", 0, "{:.1f}"),
+    "volume_change": ("volume change", 0, "{:+.2%}"),
     "watertight": ("watertight", 0, "{}"),
     "edge_manifold": ("manifold", 0, "{}"),
     "faces": ("faces", 0, "{}"),
     "seconds": ("time (s)", -1, "{:.1f}"),
 }
-HEADLINE = ("noise_removed", "chamfer", "normal_error_deg", "sharp_edge_mean", "seconds")
+HEADLINE = ("noise_removed", "chamfer", "normal_error_deg", "sharp_edge_mean", "roughness_deg", "moved_mean",
+            "volume_change", "seconds")
 REFERENCE_KINDS = ("noisy", "clean")
-PICTURES = (("view", "Overview"), ("closeup", "Close-up of a sharp edge"),
-            ("colormap", "Distance to the clean surface"))
+PICTURES = (("view", "Overview"), ("closeup", "Close-up"),
+            ("colormap", "Distance to the clean surface (with no clean mesh: to the input)"))
 
 
 def _value(entry, key):
@@ -57,9 +64,15 @@ def _best(entries, key):
     return {name for name, v in values if v * sense == top}
 
 
-def _columns(case):
-    """Metric keys that have a value for at least one method of the case."""
-    return [k for k in METRICS if any(_value(e, k) is not None for e in case["methods"] if e["error"] is None)]
+def _columns(case, keys=tuple(METRICS)):
+    """Those of ``keys`` that have a value for at least one method of the case."""
+    return [k for k in keys if any(_value(e, k) is not None for e in case["methods"] if e["error"] is None)]
+
+
+def headline_keys(results):
+    """The HEADLINE columns that have a value in some case."""
+    found = {k for case in results["cases"] for k in _columns(case, HEADLINE)}
+    return [k for k in HEADLINE if k in found]
 
 
 def table_rows(case, keys):
@@ -94,7 +107,8 @@ def _script_parameters(config):
 
 def _noise_text(case):
     if not case["synthetic"]:
-        return "given noisy/clean pair"
+        return ("given noisy/clean pair" if case.get("reference", "clean") == "clean" else
+                "given mesh, no clean one: each filter measured against the input")
     n = case["noise"]
     return (f"p = {n['p']}, r = {n['r']}, h = {n['h']}, l = {n['l']}" + (", with dents" if n["dents"] else "")
             + f"; seed {n['seed']}, {n['resolution']} voxels")
@@ -123,10 +137,10 @@ def _sweep_plot(sweep, out_dir):
 
 
 def headline_rows(results):
-    """(case, method, [texts]) for the headline table (HEADLINE columns)."""
+    """(case, method, [texts]) for the headline table (`headline_keys` columns)."""
     rows = []
     for case in results["cases"]:
-        for name, cells, error in table_rows(case, HEADLINE):
+        for name, cells, error in table_rows(case, headline_keys(results)):
             rows.append((case["name"], name, [f"failed: {error}"] if error else
                          [f"**{text}**" if best else text for text, best in cells]))
     return rows
@@ -141,15 +155,24 @@ def _md_table(header, rows):
     return "\n".join(lines)
 
 
+def _intro(results):
+    """What was compared, and how to read the tables."""
+    cfg = results["config"]
+    source = (f"Configuration {cfg['path']}" if cfg["path"] else
+              "The meshes given, each as it is: skelfilter's default beside MeshLab's filters")
+    return (f"{source}; {len(results['cases'])} models; wall time {results['wall_seconds']:.0f} s. Distances "
+            f"are in voxels of each model's grid ({cfg['resolution']} voxels along the longest side). "
+            "Marked: the best filter in a column; the input and the clean mesh are references and do not "
+            "compete, and with no clean mesh nothing is best: roughness, how far the surface moved and how "
+            "much the volume changed say what a filter did, not whether it was right.")
+
+
 def _markdown(results, sweep_png):
     cfg, out = results["config"], []
     out.append("# skelfilter against MeshLab's filters\n")
-    out.append(f"Configuration `{cfg['path']}`; {len(results['cases'])} models; wall time "
-               f"{results['wall_seconds']:.0f} s. Distances in voxels of each model's noise grid "
-               f"({cfg['resolution']} voxels along the longest side). **Bold**: best filter in the column "
-               "(the noisy input and the clean mesh are references and do not compete).\n")
+    out.append(_intro(results) + "\n")
     out.append("## Headline\n")
-    out.append(_md_table(["model", "method"] + [METRICS[k][0] for k in HEADLINE],
+    out.append(_md_table(["model", "method"] + [METRICS[k][0] for k in headline_keys(results)],
                          [[c, m] + cells for c, m, cells in headline_rows(results)]) + "\n")
     methods = [m["name"] for m in cfg["methods"]]
     for kind, title in PICTURES:
@@ -166,7 +189,7 @@ def _markdown(results, sweep_png):
     out.append("## Metrics per model\n")
     for case in results["cases"]:
         keys = _columns(case)
-        out.append(f"### {case['name']} ({_noise_text(case)})\n")
+        out.append(f"### {case['name']} ({_noise_text(case)}; close-up: {_closeup_text(case)})\n")
         rows = [[name] + ([f"failed: {error}"] + [""] * (len(keys) - 1) if error else
                           [f"**{t}**" if b else t for t, b in cells]) for name, cells, error in table_rows(case, keys)]
         out.append(_md_table(["method"] + [METRICS[k][0] for k in keys], rows) + "\n")
@@ -189,6 +212,10 @@ def _markdown(results, sweep_png):
 def _routes(case):
     """(method, what it ran and why) of the skelfilter methods of a case."""
     return [(e["name"], e["route"]) for e in case["methods"] if e.get("route")]
+
+
+def _closeup_text(case):
+    return case.get("closeup", "a sharp edge")
 
 
 def _facts_text(case):
@@ -247,19 +274,16 @@ def _metric_rows(case, keys):
 def _html(results, sweep_png):
     cfg = results["config"]
     methods = [m["name"] for m in cfg["methods"]]
-    body = ["<h1>skelfilter against MeshLab's filters</h1>",
-            f"<p class='note'>Configuration <code>{_h(cfg['path'])}</code>; {len(results['cases'])} models; wall "
-            f"time {results['wall_seconds']:.0f} s. Distances are in voxels of each model's noise grid "
-            f"({cfg['resolution']} voxels along the longest side). Highlighted: the best filter in each column; "
-            "the noisy input and the clean mesh are references and do not compete.</p>",
+    headline = headline_keys(results)
+    body = ["<h1>skelfilter against MeshLab's filters</h1>", f"<p class='note'>{_h(_intro(results))}</p>",
             "<h2>Headline</h2>"]
     rows = []
     for case in results["cases"]:
-        for name, cells, error in table_rows(case, HEADLINE):
+        for name, cells, error in table_rows(case, headline):
             lead = [f"<td>{_h(case['name'])}</td>", f"<td>{_h(name)}</td>"]
-            rows.append(lead + ([f"<td class='failed' colspan='{len(HEADLINE)}'>failed: {_h(error)}</td>"] if error
+            rows.append(lead + ([f"<td class='failed' colspan='{len(headline)}'>failed: {_h(error)}</td>"] if error
                                 else [f"<td class='{'best' if b else ''}'>{_h(t)}</td>" for t, b in cells]))
-    body.append(_html_table(["model", "method"] + [METRICS[k][0] for k in HEADLINE], rows))
+    body.append(_html_table(["model", "method"] + [METRICS[k][0] for k in headline], rows))
     for kind, title in PICTURES:
         body.append(f"<h2>{_h(title)}</h2>")
         if kind == "colormap":
@@ -276,7 +300,7 @@ def _html(results, sweep_png):
     for case in results["cases"]:
         keys = _columns(case)
         body.append(f"<h3>{_h(case['name'])}</h3><p class='note'>{_h(_noise_text(case))}; noisy mesh: "
-                    f"{_h(_facts_text(case))}</p>")
+                    f"{_h(_facts_text(case))}; close-up: {_h(_closeup_text(case))}</p>")
         body.append(_html_table(["method"] + [METRICS[k][0] for k in keys], _metric_rows(case, keys)))
         body.extend(f"<p class='note'>what {_h(name)} ran: {_h(route)}</p>" for name, route in _routes(case))
     if sweep_png:
@@ -328,7 +352,7 @@ def grid_picture(results, out_dir, kind="view", cell=(210, 170)):
 def write_report(results, out_dir, colour_range):
     """Write ``report.html``, ``report.md``, the colour scale and the sweep plot into ``out_dir``."""
     render.colour_bar(os.path.join(out_dir, "colour-scale.png"), colour_range,
-                      "distance to the clean surface (voxels)")
+                      "distance to the clean surface, or to the input with no clean mesh (voxels)")
     sweep_png = _sweep_plot(results["sweep"], out_dir) if results.get("sweep") else None
     for kind, _ in PICTURES:
         grid_picture(results, out_dir, kind)

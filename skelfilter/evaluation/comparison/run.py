@@ -22,7 +22,7 @@ import numpy as np
 import trimesh
 
 from skelfilter.core import pipeline
-from skelfilter.evaluation import metrics
+from skelfilter.evaluation import camera, metrics
 from skelfilter.evaluation.comparison import render, report
 from skelfilter.evaluation.comparison.config import as_dict, slug
 from skelfilter.evaluation.comparison.methods import run_method
@@ -31,6 +31,7 @@ from skelfilter.io import mesh_files
 from skelfilter.io.samples import sample_path
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.mesh import voxelize
+from skelfilter.mesh.closest_points import MeshSurface
 from skelfilter.params import DenoiseParams
 from skelfilter.runtime.extras import load
 from skelfilter.runtime.progress import Progress
@@ -74,7 +75,7 @@ def decimate(mesh, max_faces):
 
 
 def prepare_case(case, config):
-    """(clean, noisy, grid, noise masks or None, facts about the noisy mesh) of one case."""
+    """(clean or None, noisy, grid, noise masks or None, facts about the noisy mesh) of one case."""
     if case.synthetic:
         clean = _clean_model(case.model)
         marching, noise, grid = mesh_pipeline.noisy_mesh(clean, case.noise)
@@ -85,27 +86,48 @@ def prepare_case(case, config):
                  "decimation_hausdorff_max": hmax, "bump_voxels": int(noise.bumps.sum()),
                  "dent_voxels": int(noise.dents.sum())}
     else:
-        clean, noisy = mesh_files.load_mesh(case.clean), mesh_files.load_mesh(case.noisy)
+        noisy = mesh_files.load_mesh(case.noisy)
+        clean = None if case.clean is None else mesh_files.load_mesh(case.clean)
         noise = None
-        grid = voxelize.grid_for_bounds(clean.bounds, config.resolution, 4)
+        grid = voxelize.grid_for_bounds((noisy if clean is None else clean).bounds, config.resolution, 4)
         facts = {"faces": len(noisy.faces)}
     facts["pitch"] = grid.pitch
     return clean, noisy, grid, noise, facts
 
 
-def _pictures(case_dir, name, mesh, clean, grid, cameras, size):
-    """view, close-up and colour map of one result; paths relative to the output folder."""
+def _cameras(case, reference, outcomes):
+    """The overview and the close-up camera of a case, and what the close-up shows.
+
+    A configured view looks at the clean model's sharp edge nearest to the eye; a chosen one
+    (`camera.view_for`) at the spot where the filters' results lie farthest apart."""
+    up = case.up or camera.up_for(case.noisy or case.model or "")
+    overview = camera.camera_for(reference, case.view or camera.view_for(reference, up), up)
+    results = [o.mesh for o in outcomes.values() if o.error is None and o.filtered]
+    if case.view is not None or len(results) < 2:
+        return (overview, camera.closeup_camera(reference, overview)), "a sharp edge"
+    points, faces = trimesh.sample.sample_surface(reference, 20_000, seed=0)
+    spread = np.std([MeshSurface(mesh).distance(points) for mesh in results], axis=0)
+    closeup = camera.closeup_where_differ(points, reference.face_normals[faces], spread, overview)
+    return (overview, closeup), "where the filters' results differ most"
+
+
+def _pictures(case_dir, name, mesh, reference, grid, cameras, size):
+    """view, close-up and colour map (distance to ``reference``) of one result; paths relative to the
+    output folder."""
     out = {}
-    for kind, camera, scalars in (("view", cameras[0], None), ("closeup", cameras[1], None),
-                                  ("colormap", cameras[0], metrics.vertex_distances(mesh, clean, grid))):
+    for kind, view, scalars in (("view", cameras[0], None), ("closeup", cameras[1], None),
+                                ("colormap", cameras[0], metrics.vertex_distances(mesh, reference, grid))):
         path = os.path.join(case_dir, f"{slug(name)}-{kind}.png")
-        render.render(mesh, camera, path, size, scalars=scalars, clim=COLOUR_RANGE)
+        render.render(mesh, view, path, size, scalars=scalars, clim=COLOUR_RANGE)
         out[kind] = path
     return out
 
 
 def run_case(case, config, out_dir, say, pool):
-    """All methods on one case; returns the case's entry of results.json and its noise masks (or None)."""
+    """All methods on one case; returns the case's entry of results.json and its noise masks (or None).
+
+    Measured against the clean mesh where there is one (`metrics.mesh_metrics`), else against the
+    input (`metrics.change_measures`); the colour maps show the distance to the same mesh."""
     # The steps that run numba's kernels here hold an interrupt until they end (see `methods.run_method`).
     with deferred():
         clean, noisy, grid, noise, facts = prepare_case(case, config)
@@ -113,33 +135,41 @@ def run_case(case, config, out_dir, say, pool):
     os.makedirs(case_dir, exist_ok=True)
     mesh_files.save_mesh(noisy, os.path.join(case_dir, "input-noisy.ply"))
     say(f"{case.name}: noisy mesh ready ({facts['faces']} faces)")
-    camera = render.camera_for(clean, case.view, case.up)
-    cameras = (camera, render.closeup_camera(clean, camera))
     with deferred():  # the pool's threads start with the signals held: they reach the main thread only
         futures = {m.name: pool.submit(run_method, m, noisy, clean, config)
                    for m in config.methods if m.kind in SUBPROCESS_KINDS}
-    entries = []
+    outcomes = {}
     for method in config.methods:  # in-process methods (numba) run here, meanwhile the children run
         outcome = futures[method.name].result() if method.name in futures else \
             run_method(method, noisy, clean, config)
+        say(f"{case.name}: {method.name} " + (f"{outcome.seconds:.1f} s" if outcome.error is None
+                                              else f"FAILED: {outcome.error}"))
+        outcomes[method.name] = outcome
+    reference = noisy if clean is None else clean
+    with deferred():
+        cameras, closeup = _cameras(case, reference, outcomes)
+    entries = []
+    for method in config.methods:
+        outcome = outcomes[method.name]
         entry = {"name": method.name, "kind": method.kind, "seconds": outcome.seconds, "error": outcome.error}
         if outcome.route is not None:
             entry["route"] = outcome.route
         if outcome.error is None:
             with deferred():
-                entry["metrics"] = metrics.mesh_metrics(outcome.mesh, clean, grid, noise)
+                entry["metrics"] = (metrics.change_measures(outcome.mesh, noisy, grid) if clean is None
+                                    else metrics.mesh_metrics(outcome.mesh, clean, grid, noise))
             entry["error"] = entry["metrics"].get("error")
         if entry["error"] is None:
             entry["mesh"] = os.path.join(case_dir, f"{slug(method.name)}.ply")
             mesh_files.save_mesh(outcome.mesh, entry["mesh"])
             with deferred():
-                entry["images"] = _pictures(case_dir, method.name, outcome.mesh, clean, grid, cameras,
+                entry["images"] = _pictures(case_dir, method.name, outcome.mesh, reference, grid, cameras,
                                             config.image_size)
-        say(f"{case.name}: {method.name} " + (f"{outcome.seconds:.1f} s" if entry["error"] is None
-                                              else f"FAILED: {entry['error']}"))
         entries.append(entry)
-    return {"name": case.name, "synthetic": case.synthetic,
-            "noise": vars(case.noise) if case.synthetic else None, "facts": facts, "methods": entries}, noise
+    say(f"{case.name}: measured and pictured")
+    return {"name": case.name, "synthetic": case.synthetic, "reference": "input" if clean is None else "clean",
+            "closeup": closeup, "noise": vars(case.noise) if case.synthetic else None, "facts": facts,
+            "methods": entries}, noise
 
 
 def threshold_sweep(name, noise, config, method, say):

@@ -1,10 +1,12 @@
-"""Every mesh measure of a result at once, as the benchmarks and the comparison report them.
+"""Every mesh measure of a result at once, as the benchmarks and the comparison report them: against
+the clean mesh (`mesh_metrics`), or against the input when there is no clean mesh (`change_measures`).
 """
 
 import numpy as np
 import trimesh
 
 from skelfilter.errors import InputError
+from skelfilter.evaluation.metrics.reference_free import roughness, volume_change
 from skelfilter.evaluation.metrics.surface_distances import (
     N_SAMPLES,
     SEED,
@@ -101,3 +103,42 @@ def mesh_metrics(result, clean, grid, noise=None, reach=6.1, sharp_angle=30.0, n
     if noise is not None:
         out.update(noise_removed(result, noise, grid, v_result))
     return out
+
+
+def change_measures(result, source, grid, n_samples=N_SAMPLES, seed=SEED):
+    """What a filter did to ``source``, measured on its ``result`` without a clean reference.
+
+    Parameters
+    ----------
+    result, source : trimesh.Trimesh
+    grid : voxelize.Grid
+        Unit of the distances (``grid.pitch``).
+    n_samples : int, optional
+        Surface samples per mesh for the distances.
+    seed : int, optional
+
+    Returns
+    -------
+    dict
+        ``roughness_deg`` (the result's `roughness`), ``moved_mean`` (the symmetric mean surface
+        distance to the source, voxels), ``moved_max`` (its largest, voxels), ``normal_change_deg``
+        (`normal_error` against the source), ``volume_change`` (`volume_change`: NaN unless both
+        are closed), ``watertight``, ``edge_manifold``, ``faces``; like `mesh_metrics`, only
+        ``{"error": reason, "faces": n}`` for a result that cannot be measured.
+
+    Raises
+    ------
+    InputError
+        If the source itself cannot be measured.
+    """
+    why = _invalid(source)
+    if why:
+        raise InputError(f"input mesh: {why}")
+    why = _invalid(result)
+    if why:
+        return {"error": why, "faces": len(result.faces) if isinstance(result, trimesh.Trimesh) else 0}
+    moved_mean, _, moved_max = surface_distances(result, source, grid, n_samples, seed)
+    return {"roughness_deg": roughness(result), "moved_mean": moved_mean, "moved_max": moved_max,
+            "normal_change_deg": normal_error(result, source), "volume_change": volume_change(result, source),
+            "watertight": bool(result.is_watertight), "edge_manifold": bool(is_edge_manifold(result)),
+            "faces": int(len(result.faces))}
