@@ -162,3 +162,103 @@ def test_report_opens_in_headless_chromium(smoke, tmp_path):
                    timeout=120, check=True)
     page = np.asarray(Image.open(shot).convert("L"), dtype=float)
     assert page.std() > 20 and (page < 128).mean() > 0.01  # text, tables and pictures, not a blank page
+
+
+# ------------------------------------------------------------------------------ a user's own meshes
+
+TWELVE = os.path.join(HERE, "..", "skelfilter", "data", "twelve-impulsive")
+USER_METHODS = ["input", "skelfilter", "Laplacian", "Two-step", "MLS (APSS)", "RIMLS"]
+
+
+def _compare(args, cwd):
+    proc = subprocess.run(["skelfilter", "compare", *args, "--quiet"], capture_output=True, text=True, cwd=cwd,
+                          timeout=600)
+    return proc
+
+
+@pytest.fixture(scope="module")
+def own_mesh(tmp_path_factory):
+    """`skelfilter compare FOLDER --out r` on a folder with one noisy mesh (and a text file) in it."""
+    work = tmp_path_factory.mktemp("own")
+    (work / "scans").mkdir()
+    shutil.copy(os.path.join(TWELVE, "noisy.obj"), work / "scans" / "part.obj")
+    (work / "scans" / "notes.txt").write_text("not a mesh")
+    proc = _compare(["scans", "--out", "r"], work)
+    with open(work / "r" / "results.json") as f:
+        return work / "r", proc, json.load(f)
+
+
+def test_compare_of_a_mesh_alone_needs_no_configuration(own_mesh):
+    out, proc, results = own_mesh
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr  # no VTK warning either
+    (case,) = results["cases"]
+    assert case["name"] == "part.obj" and case["reference"] == "input"
+    assert [m["name"] for m in case["methods"]] == USER_METHODS
+    measured = {m["name"]: m["metrics"] for m in case["methods"]}
+    for name, m in measured.items():
+        assert {"roughness_deg", "moved_mean", "volume_change", "normal_change_deg"} <= set(m), name
+        assert "chamfer" not in m  # nothing to measure it against
+    assert measured["input"]["moved_mean"] < 1e-4 and measured["input"]["volume_change"] == 0
+    # every filter smooths the impulsive noise: rougher input than any result
+    assert all(measured[n]["roughness_deg"] < measured["input"]["roughness_deg"] for n in USER_METHODS[1:])
+    assert case["closeup"] == "where the filters' results differ most"
+    md = (out / "report.md").read_text()
+    assert "The meshes given, each as it is" in md and "| part.obj | skelfilter |" in md
+    assert "roughness (°)" in md and "volume change" in md
+
+
+def test_compare_pictures_of_a_mesh_alone_show_it(own_mesh):
+    out, _, results = own_mesh
+    for m in results["cases"][0]["methods"]:
+        for kind, path in m["images"].items():
+            img = np.asarray(Image.open(out / path).convert("L"), dtype=float)
+            covered = (img < 245).mean()
+            assert 0.05 < covered < 0.97 and img.std() > 10, (m["name"], kind, covered)
+
+
+def test_compare_with_a_clean_mesh_gives_the_full_table(tmp_path):
+    proc = _compare([os.path.join(TWELVE, "noisy.obj"), "--clean", os.path.join(TWELVE, "clean.obj"),
+                     "--out", "r", "--jobs", "2"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    with open(tmp_path / "r" / "results.json") as f:
+        (case,) = json.load(f)["cases"]
+    assert case["reference"] == "clean" and [m["name"] for m in case["methods"]] == USER_METHODS + ["clean"]
+    measured = {m["name"]: m["metrics"] for m in case["methods"]}
+    assert measured["clean"]["chamfer"] < 0.01 and measured["skelfilter"]["chamfer"] < measured["input"]["chamfer"]
+    assert "normal_error_deg" in measured["RIMLS"]
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["a.obj", "b.obj", "--clean", "a.obj"], "a clean mesh belongs to one noisy mesh, got 2"),
+    (["c.toml", "a.obj"], "a TOML configuration names its own meshes"),
+    (["--clean", "a.obj"], "--clean: give the noisy mesh it belongs to"),
+    (["v.npy"], "v.npy: not a mesh"),
+    (["a.obj", "--clean", "missing.obj"], "missing.obj: no such file"),
+])
+def test_compare_refuses_what_it_cannot_do(tmp_path, args, fragment):
+    for name in ("a.obj", "b.obj"):
+        shutil.copy(os.path.join(TWELVE, "noisy.obj"), tmp_path / name)
+    (tmp_path / "c.toml").write_text("")
+    np.save(tmp_path / "v.npy", np.zeros((4, 4, 4), bool))
+    proc = _compare(args + ["--out", "r"], tmp_path)
+    assert proc.returncode != 0 and proc.stderr.startswith("skelfilter: error: ") and fragment in proc.stderr, \
+        proc.stderr
+    assert not (tmp_path / "r").exists()
+
+
+def test_the_chosen_view_sees_the_broad_side_with_the_features():
+    import manifold3d
+
+    from skelfilter.evaluation import camera
+
+    plate = manifold3d.Manifold.cube((1.0, 1.0, 0.1), True)  # broad in x and y
+    bumps = [manifold3d.Manifold.sphere(0.06, 24).translate((x, y, 0.05))
+             for x in (-0.3, 0.0, 0.3) for y in (-0.3, 0.0, 0.3)]  # relief on the +z side only
+    solid = manifold3d.Manifold.batch_boolean([plate] + bumps, manifold3d.OpType.Add).to_mesh()
+    shape = trimesh.Trimesh(np.asarray(solid.vert_properties)[:, :3], np.asarray(solid.tri_verts))
+    view = camera.view_for(shape, up=(0.0, 1.0, 0.0))
+    assert view[2] > 0.8  # from +z: the broad side, where the relief is
+    flipped = shape.copy()
+    flipped.apply_transform(trimesh.transformations.rotation_matrix(np.pi, (0, 1, 0)))
+    assert camera.view_for(flipped, up=(0.0, 1.0, 0.0))[2] < -0.8
+    assert camera.up_for("part.STL") == (0.0, 0.0, 1.0) and camera.up_for("bunny.ply") == (0.0, 1.0, 0.0)

@@ -1,9 +1,9 @@
 """Where the pictures are taken from: one camera for every picture of a model, whichever renderer draws it.
 
 A configured comparison names its views; a mesh a user brings gets `view_for`: its up axis by the
-file format's convention, and of the directions a little above the horizon the one that sees most
-of the surface, its detailed parts counted more (a rabbit from the side its face and ears are on,
-not from above and behind). The close-up looks at a sharp edge of the clean model
+file format's convention, and of the directions a little above the horizon the one that faces most
+of its surface and of its features (a rabbit from the side its face and ears are on, not from above
+and behind). The close-up looks at a sharp edge of the clean model
 (`closeup_camera`) or at the spot where the results differ most (`closeup_where_differ`).
 """
 
@@ -52,23 +52,19 @@ def up_for(path):
     return (0.0, 0.0, 1.0) if z_up else (0.0, 1.0, 0.0)
 
 
-def _face_detail(mesh):
-    """Per face, the largest dihedral angle (radians) at its edges: where a shape has its features."""
-    detail = np.zeros(len(mesh.faces))
-    angles = mesh.face_adjacency_angles
-    for side in mesh.face_adjacency.T:
-        np.maximum.at(detail, side, angles)
-    return detail
-
-
 def view_for(mesh, up=(0.0, 1.0, 0.0)):
-    """The direction (centre -> eye) of the automatic view of ``mesh`` with ``up`` as its up axis.
+    r"""The direction (centre -> eye) of the automatic view of ``mesh`` with ``up`` as its up axis.
 
-    Of `AZIMUTHS` directions `ELEVATION` degrees above the horizon, the one maximising
-    ``sum(area * max(0, n . d) * (1 + detail / mean detail))`` over the faces: the projected area
-    the camera sees, each face weighted by its sharpest dihedral angle relative to the mean. On a
-    closed surface the projected area alone is the same from opposite sides; the weight picks the
-    side where the shape has its features.
+    Of `AZIMUTHS` directions ``d`` `ELEVATION` degrees above the horizon, the one maximising
+
+    .. math:: \frac{\sum_f A_f \max(0, n_f \cdot d)}{\sum_f A_f}
+              + \frac{\sum_e l_e \theta_e \max(0, n_e \cdot d)}{\sum_e l_e \theta_e}
+
+    over faces ``f`` (area, normal) and edges ``e`` (length, dihedral angle, the mean of its faces'
+    normals): the share of the surface the camera faces, and the share of the shape's features
+    (its integrated mean curvature) it faces. On a closed surface the first is the same from
+    opposite sides; the second picks the side where the shape has its features. Both depend on the
+    shape, not on how it is tessellated.
     """
     up = np.asarray(up, dtype=float) / np.linalg.norm(up)
     side = np.cross(up, [1.0, 0.0, 0.0] if abs(up[0]) < 0.9 else [0.0, 0.0, 1.0])
@@ -77,10 +73,14 @@ def view_for(mesh, up=(0.0, 1.0, 0.0)):
     azimuth = np.linspace(0.0, 2 * np.pi, AZIMUTHS, endpoint=False)[:, None]
     e = np.radians(ELEVATION)
     directions = np.cos(e) * (np.cos(azimuth) * side + np.sin(azimuth) * ahead) + np.sin(e) * up
-    detail = _face_detail(mesh)
-    weight = mesh.area_faces * (1.0 + detail / max(float(detail.mean()), 1e-12))
-    seen = np.clip(directions @ np.asarray(mesh.face_normals).T, 0.0, None) @ weight
-    return tuple(float(x) for x in directions[int(np.argmax(seen))])
+    normals = np.asarray(mesh.face_normals)
+    surface = np.clip(directions @ normals.T, 0.0, None) @ mesh.area_faces / max(float(mesh.area), 1e-300)
+    edge_normals = normals[mesh.face_adjacency].sum(axis=1)
+    edge_normals /= np.maximum(np.linalg.norm(edge_normals, axis=1), 1e-12)[:, None]
+    lengths = np.linalg.norm(np.diff(mesh.vertices[mesh.face_adjacency_edges], axis=1)[:, 0], axis=1)
+    feature = lengths * mesh.face_adjacency_angles
+    features = np.clip(directions @ edge_normals.T, 0.0, None) @ feature / max(float(feature.sum()), 1e-300)
+    return tuple(float(x) for x in directions[int(np.argmax(surface + features))])
 
 
 def closeup_camera(clean, camera, angle=30.0):
