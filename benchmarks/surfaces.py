@@ -372,7 +372,7 @@ def pictures(methods, path, seed=1, cases=PICTURE_CASES):
     """One row per case, one panel per method, each case framed by its true solid's box; a PNG."""
     from matplotlib.figure import Figure
 
-    from skelfilter.evaluation import figures
+    from skelfilter.evaluation import camera, figures
 
     fig = Figure(figsize=(3.2 * len(methods), 3.2 * len(cases)), dpi=100)
     for row, (solid_name, spacing_name, noisy) in enumerate(cases):
@@ -384,7 +384,7 @@ def pictures(methods, path, seed=1, cases=PICTURE_CASES):
         bounds = np.array([[-half] * 3, [half] * 3])
         for col, name in enumerate(methods):
             ax = fig.add_subplot(len(cases), len(methods), row * len(methods) + col + 1, projection="3d")
-            figures.draw_mesh(ax, METHODS[name](mask, affine), bounds=bounds)
+            figures.draw_mesh(ax, METHODS[name](mask, affine), camera.direction_from_angles(25, -60), bounds=bounds)
             title = f"{solid_name} {spacing_name}{' noisy' if noisy else ''}: {name}" if col == 0 else name
             ax.set_title(title, fontsize=8)
     fig.tight_layout()
@@ -398,7 +398,7 @@ def frog(out, picture_labels=(5,)):
     import pyvista.examples
 
     from skelfilter.core import pipeline
-    from skelfilter.evaluation import figures
+    from skelfilter.evaluation import camera, figures
     from skelfilter.io.volume_files import load_volume
     from skelfilter.mesh import marching_cubes
 
@@ -426,7 +426,7 @@ def frog(out, picture_labels=(5,)):
                    marching_cubes.mask_to_world_mesh(mask, volume.affine),
                    marching_cubes.mask_to_world_mesh(denoised, volume.affine)]
         titles += [f"label {label}: voxels", f"label {label}: smooth surface", f"label {label}: denoised, smooth"]
-    figures.save_panels(panels, titles, os.path.join(out, "frog.png"), elev=30, azim=-50)
+    figures.save_panels(panels, titles, os.path.join(out, "frog.png"), camera.direction_from_angles(30, -50))
     return row
 
 

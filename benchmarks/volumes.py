@@ -111,7 +111,7 @@ def pictures(resolution, path, cases=PICTURE_CASES):
     row per case, written as a PNG."""
     import matplotlib.pyplot as plt
 
-    from skelfilter.evaluation import figures
+    from skelfilter.evaluation import camera, figures
     from skelfilter.mesh import marching_cubes
     from skelfilter.mesh.voxelize import Grid
 
@@ -128,7 +128,7 @@ def pictures(resolution, path, cases=PICTURE_CASES):
             bounds = mesh.bounds if bounds is None else bounds
             ax = fig.add_subplot(len(cases), len(PICTURE_METHODS), row * len(PICTURE_METHODS) + col + 1,
                                  projection="3d")
-            figures.draw_mesh(ax, mesh, bounds=bounds)
+            figures.draw_mesh(ax, mesh, camera.direction_from_angles(25, -60), bounds=bounds)
             ax.set_title(f"{shape} {strength}: {name}" if col == 0 else name, fontsize=9)
     fig.tight_layout()
     fig.savefig(path)

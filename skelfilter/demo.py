@@ -8,7 +8,7 @@ import os
 import sys
 import time
 
-from skelfilter.evaluation import figures
+from skelfilter.evaluation import camera, figures
 from skelfilter.io import mesh_files
 from skelfilter.io.samples import sample_path
 from skelfilter.mesh import pipeline as mesh_pipeline
@@ -36,7 +36,8 @@ def run(out_dir, resolution=160, seed=1, progress=None):
     for name, mesh in (("clean", clean), ("noisy", noisy), ("denoised", denoised)):
         mesh_files.save_mesh(mesh, paths[name])
     picture = os.path.join(out_dir, "before-after.png")
-    figures.save_panels([noisy, denoised, clean], ["noisy", "skelfilter", "clean"], picture)
+    figures.save_panels([noisy, denoised, clean], ["noisy", "skelfilter", "clean"], picture,
+                        up=camera.up_for(sample_path()))
     summary = (f"fandisk at {resolution} voxels, stripes p={noise_params.p} r={noise_params.r} "
                f"h={noise_params.h} l={noise_params.l}: {noise_result.bumps.sum()} noise voxels, "
                f"{100 * removed:.1f}% removed; denoising took {elapsed:.1f} s")

@@ -262,3 +262,22 @@ def test_the_chosen_view_sees_the_broad_side_with_the_features():
     flipped.apply_transform(trimesh.transformations.rotation_matrix(np.pi, (0, 1, 0)))
     assert camera.view_for(flipped, up=(0.0, 1.0, 0.0))[2] < -0.8
     assert camera.up_for("part.STL") == (0.0, 0.0, 1.0) and camera.up_for("bunny.ply") == (0.0, 1.0, 0.0)
+
+
+def test_preview_shows_the_broad_side_well_lit(tmp_path):
+    """``denoise --preview`` takes compare's camera: a y-up plate with relief on one side is seen
+    face on from that side, not edge on, and its lit side is bright."""
+    import manifold3d
+
+    plate = manifold3d.Manifold.cube((1.0, 1.0, 0.1), True)
+    bumps = [manifold3d.Manifold.sphere(0.06, 24).translate((x, y, 0.05)) for x in (-0.3, 0.3) for y in (-0.3, 0.3)]
+    solid = manifold3d.Manifold.batch_boolean([plate] + bumps, manifold3d.OpType.Add).to_mesh()
+    trimesh.Trimesh(np.asarray(solid.vert_properties)[:, :3], np.asarray(solid.tri_verts)).export(tmp_path / "p.ply")
+    proc = subprocess.run(["skelfilter", "denoise", "p.ply", "out.ply", "--preview", "v.png", "--quiet"],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    image = np.asarray(Image.open(tmp_path / "v.png").convert("L"), dtype=float)
+    panel = image[int(0.1 * len(image)):, : image.shape[1] // 2]  # the input, below its title
+    covered = panel < 245
+    assert covered.mean() > 0.25, covered.mean()  # face on: the plate fills the panel
+    assert np.median(panel[covered]) > 150, np.median(panel[covered])  # lit, not dark

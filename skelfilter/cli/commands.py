@@ -46,7 +46,7 @@ def _denoise(args):
         if args.save_skeleton:
             protect[args.save_skeleton] = "skeleton"
         output_files.check_output(args.preview, protect, ("png",))
-        preview = functools.partial(_write_preview, args.preview, protect, progress)
+        preview = functools.partial(_write_preview, args.preview, protect, progress, args.input)
     summary = denoise_file.denoise_file(args.input, args.output, params, volume, args.save_skeleton, progress,
                                  points=args.points, preview=preview)
     if args.progress is None and not progress.enabled:
@@ -59,13 +59,14 @@ def _denoise(args):
         print(f"wrote {args.output}: {shape} ({total:.1f} s)", file=sys.stderr)
 
 
-def _write_preview(path, protect, progress, before, after):
-    """``--preview``: the input and the output side by side, as the demo draws them."""
-    from skelfilter.evaluation import figures
+def _write_preview(path, protect, progress, source, before, after):
+    """``--preview``: the input and the output side by side, from the camera ``skelfilter compare``
+    chooses for the input (``source``: the input's path, whose format says which axis is up)."""
+    from skelfilter.evaluation import camera, figures
 
     with progress.step("preview"):
-        output_files.atomic_write(path, lambda tmp: figures.save_panels([before, after], ["input", "denoised"], tmp),
-                                  protect=protect)
+        output_files.atomic_write(path, lambda tmp: figures.save_panels(
+            [before, after], ["input", "denoised"], tmp, up=camera.up_for(source)), protect=protect)
 
 
 def _batch(args):

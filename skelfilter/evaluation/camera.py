@@ -46,6 +46,13 @@ def camera_for(mesh, view, up):
     return Camera(tuple(centre + distance * view), tuple(centre), tuple(map(float, up)))
 
 
+def direction_from_angles(elevation, azimuth):
+    """The direction (centre -> eye) at ``elevation`` degrees above the x-y plane and ``azimuth``
+    degrees from x towards y: a fixed view of z-up models, as matplotlib names its views."""
+    e, a = np.radians(elevation), np.radians(azimuth)
+    return (float(np.cos(e) * np.cos(a)), float(np.cos(e) * np.sin(a)), float(np.sin(e)))
+
+
 def up_for(path):
     """The up axis of a model stored at ``path``, by its format's convention."""
     z_up = str(path).lower().endswith(Z_UP_FORMATS)
