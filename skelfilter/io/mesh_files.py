@@ -10,6 +10,7 @@ import numpy as np
 import trimesh
 
 from skelfilter.errors import InputError
+from skelfilter.io import off, polygons, text_rows
 from skelfilter.io.formats import MESH_FORMATS, SINGLE_PRECISION_FORMATS, suffix
 from skelfilter.io.input_files import check_input_file
 from skelfilter.io.output_files import atomic_write, check_sidecars
@@ -38,10 +39,15 @@ def load_mesh(path):
     if os.path.getsize(path) == 0:
         raise InputError(f"{path}: the file is empty")
     options, wedge_uv = _ply_options(path) if ext == "ply" else ({}, False)
-    text = _read(path) if ext == "obj" else None
+    text = _read(path) if ext in ("obj", "off") else None
     plain = _plain_obj(text) if ext == "obj" else None
+    if ext == "obj":
+        plain = _split_concave_obj(plain if plain is not None else text) or plain
+    dropped = []
     try:
-        if plain is not None:  # read from memory, its materials from its folder
+        if ext == "off":
+            mesh, dropped = off.load_off(text)
+        elif plain is not None:  # read from memory, its materials from its folder
             mesh = trimesh.load(io.BytesIO(plain), file_type=ext, force="mesh", process=False,
                                 resolver=trimesh.resolvers.FilePathResolver(os.path.dirname(os.path.abspath(path))))
         elif _utf8(path):
@@ -58,6 +64,8 @@ def load_mesh(path):
     if ext == "obj":
         for line in _obj_sidecar_problems(path, text):
             log.warning("%s: %s", path, line)
+    if dropped:
+        log.warning("%s: its %s are not read", path, " and ".join(dropped))
     if wedge_uv:  # the texture coordinates were read on the vertices, wrongly: the geometry alone
         log.warning("%s: its per-wedge texture coordinates are not kept (the mesh is read without them)", path)
         mesh = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
@@ -75,6 +83,56 @@ def _plain_obj(text):
     if b"\t" not in text and not re.search(rb"[^\s#][ \t]*#", text):
         return None
     return re.sub(rb"[ \t]+#[^\r\n]*", b"", text.replace(b"\t", b" "))
+
+
+_OBJ_POLYGON = re.compile(rb"^[ \t]*f((?:[ \t]+\S+){4,})[ \t]*\r?$", re.M)
+_OBJ_VERTEX = re.compile(rb"^[ \t]*v[ \t]+([^\n]*)", re.M)
+
+
+def _split_concave_obj(text):
+    """An OBJ file's ``text`` with its concave polygons written as triangles cut inside them
+    (`polygons.triangulate`), their texture and normal indices kept: trimesh cuts every polygon as a fan
+    from its first corner, across a concave one's notch. None where it has no concave polygon (or
+    is malformed: trimesh says how)."""
+    found = list(_OBJ_POLYGON.finditer(text))
+    if not found:
+        return None
+    try:
+        values, widths = text_rows.numbers(_OBJ_VERTEX.findall(text))
+    except ValueError:
+        return None
+    if (widths < 3).any():
+        return None
+    vertices = values[(np.cumsum(widths) - widths)[:, None] + np.arange(3)]
+    bodies = b"\n".join(match.group(1) for match in found)
+    counts = text_rows.words_per_line(bodies, len(found))
+    words = np.array(bodies.split(), dtype=object)
+    indices = np.array(re.findall(rb"(?<!\S)(-?\d+)", bodies), dtype=np.int64)
+    if len(indices) != len(words):
+        return None
+    if (indices < 0).any():  # relative to the vertices defined before the face
+        defined = np.searchsorted([m.start() for m in _OBJ_VERTEX.finditer(text)],
+                                  [m.start() for m in found]).repeat(counts)
+        indices = np.where(indices < 0, defined + indices + 1, indices)
+    indices -= 1
+    if indices.min() < 0 or indices.max() >= len(vertices):
+        return None
+    concave = np.flatnonzero(polygons.is_concave(vertices, counts, indices))
+    if not len(concave):
+        return None
+    starts = np.cumsum(counts) - counts
+    taken = polygons.spans(starts[concave], counts[concave])
+    triangles, _ = polygons.triangulate(vertices[indices], counts[concave], taken)
+    lines = (b"f %s %s %s\n" * len(triangles)) % tuple(words[triangles].ravel())
+    cuts = np.concatenate([[0], np.flatnonzero(np.frombuffer(lines, np.uint8) == ord("\n")) + 1])
+    sizes = counts[concave] - 2
+    first = np.cumsum(sizes) - sizes
+    pieces, last = [], 0
+    for k, polygon_at in enumerate(concave):  # the concave polygons only, where the text changes
+        match = found[polygon_at]
+        pieces += [text[last:match.start()], lines[cuts[first[k]]:cuts[first[k] + sizes[k]] - 1]]
+        last = match.end()
+    return b"".join(pieces + [text[last:]])
 
 
 def _obj_sidecar_problems(path, text):
@@ -269,8 +327,18 @@ def save_mesh(mesh, path, protect=()):
     if ext == "obj":
         _save_obj(mesh, path, protect)
         return
-    options = {"digits": _decimal_places(mesh.vertices)} if ext == "off" else {}
-    atomic_write(path, lambda tmp: mesh.export(tmp, file_type=ext, **options), protect)
+    if ext == "off":
+        _write_bytes(path, off.off_text(mesh, _decimal_places(mesh.vertices)).encode("ascii"), protect)
+        return
+    atomic_write(path, lambda tmp: mesh.export(tmp, file_type=ext), protect)
+
+
+def _write_bytes(path, data, protect):
+    def write(tmp):
+        with open(tmp, "wb") as f:
+            f.write(data)
+
+    atomic_write(path, write, protect)
 
 
 def save_parts(meshes, path, protect=()):
