@@ -16,6 +16,11 @@ MEASURES = (  # key, title, scale, digits, lower is better
     ("chamfer", "Chamfer, voxels (↓)", 1.0, 2, True),
     ("normal_error_deg", "mean normal error, degrees (↓)", 1.0, 0, True),
     ("sharp_edge_mean", "sharp-edge error, voxels (↓)", 1.0, 2, True),
+    # with no clean mesh (`skelfilter compare MESH`): what each filter did, nothing best
+    ("roughness_deg", "roughness, degrees", 1.0, 1, None),
+    ("moved_mean", "moved, mean, voxels", 1.0, 3, None),
+    ("moved_max", "moved, max, voxels", 1.0, 2, None),
+    ("volume_change", "volume change", 100.0, 2, None),
 )
 REFERENCES = ("noisy", "clean")
 
@@ -33,7 +38,7 @@ def table(results, key, title, scale, digits, lower):
     for c in cases:
         values = [_value(m, key) for m in c["methods"] if m["kind"] not in REFERENCES]
         values = [v for v in values if v is not None]
-        best[c["name"]] = (min if lower else max)(values) if values else None
+        best[c["name"]] = (min if lower else max)(values) if values and lower is not None else None
     for name in methods:
         cells = []
         for c in cases:
@@ -57,7 +62,8 @@ def main(argv=None):
         results = json.load(f)
     print(f"wall time {results['wall_seconds']:.0f} s\n")
     for measure in MEASURES:
-        print(table(results, *measure) + "\n")
+        if any(_value(m, measure[0]) is not None for c in results["cases"] for m in c["methods"]):
+            print(table(results, *measure) + "\n")
     for c in results["cases"]:
         for m in c["methods"]:
             if m.get("route"):

@@ -148,6 +148,7 @@ def run_case(case, config, out_dir, say, pool):
     reference = noisy if clean is None else clean
     with deferred():
         cameras, closeup = _cameras(case, reference, outcomes)
+        noisy_surface = MeshSurface(noisy) if clean is None else None
     entries = []
     for method in config.methods:
         outcome = outcomes[method.name]
@@ -156,7 +157,8 @@ def run_case(case, config, out_dir, say, pool):
             entry["route"] = outcome.route
         if outcome.error is None:
             with deferred():
-                entry["metrics"] = (metrics.change_measures(outcome.mesh, noisy, grid) if clean is None
+                entry["metrics"] = (metrics.change_measures(outcome.mesh, noisy, grid, source_surface=noisy_surface)
+                                    if clean is None
                                     else metrics.mesh_metrics(outcome.mesh, clean, grid, noise))
             entry["error"] = entry["metrics"].get("error")
         if entry["error"] is None:

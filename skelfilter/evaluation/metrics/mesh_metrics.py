@@ -105,7 +105,12 @@ def mesh_metrics(result, clean, grid, noise=None, reach=6.1, sharp_angle=30.0, n
     return out
 
 
-def change_measures(result, source, grid, n_samples=N_SAMPLES, seed=SEED):
+# Surface samples per mesh of `change_measures`: its mean distance to within 1 % of 100 000 samples'
+# on the literature's noisy bunny, in a fifth of the time.
+CHANGE_SAMPLES = 20_000
+
+
+def change_measures(result, source, grid, n_samples=CHANGE_SAMPLES, seed=SEED, source_surface=None):
     """What a filter did to ``source``, measured on its ``result`` without a clean reference.
 
     Parameters
@@ -116,6 +121,8 @@ def change_measures(result, source, grid, n_samples=N_SAMPLES, seed=SEED):
     n_samples : int, optional
         Surface samples per mesh for the distances.
     seed : int, optional
+    source_surface : MeshSurface, optional
+        ``source`` prepared for closest-point queries, shared by the results of one source.
 
     Returns
     -------
@@ -137,8 +144,11 @@ def change_measures(result, source, grid, n_samples=N_SAMPLES, seed=SEED):
     why = _invalid(result)
     if why:
         return {"error": why, "faces": len(result.faces) if isinstance(result, trimesh.Trimesh) else 0}
-    moved_mean, _, moved_max = surface_distances(result, source, grid, n_samples, seed)
+    source_surface = source_surface or MeshSurface(source)
+    moved_mean, _, moved_max = surface_distances(result, source, grid, n_samples, seed,
+                                                 surfaces=(MeshSurface(result), source_surface))
     return {"roughness_deg": roughness(result), "moved_mean": moved_mean, "moved_max": moved_max,
-            "normal_change_deg": normal_error(result, source), "volume_change": volume_change(result, source),
+            "normal_change_deg": normal_error(result, source, clean_surface=source_surface),
+            "volume_change": volume_change(result, source),
             "watertight": bool(result.is_watertight), "edge_manifold": bool(is_edge_manifold(result)),
             "faces": int(len(result.faces))}
