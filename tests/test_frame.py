@@ -56,7 +56,7 @@ def test_scale_and_shift_do_not_change_the_result(fandisk, scan, kind):
     assert _deviation(run(_moved(mesh, 2.0**-30, 0.0)), reference, 2.0**-30, 0.0) == 0
     for scale, shift in ((1e-9, 0.0), (1e9, 0.0), (1.0, 1e11), (3.7e-4, -5e6)):
         out = run(_moved(mesh, scale, shift))
-        # Float32 distances (open3d) in the closed output, which is the input's own surface wherever
+        # Distances in the closed output, which is the input's own surface wherever
         # nothing changed (all of a clean mesh: measured 1.2e-6 of the size); the far-off input's own rounding.
         tolerance = 2e-6 * size + 4 * np.spacing(abs(shift)) / scale
         if kind == "closed" and shift:

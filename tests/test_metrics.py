@@ -82,7 +82,7 @@ def test_chamfer_and_hausdorff_of_a_translated_cube():
 
 def test_distances_of_a_mesh_to_itself_are_zero():
     a = unit_cube()
-    # open3d works in float32: a millionth of a voxel is its rounding
+    # the samples lie on the surface up to their own rounding
     assert metrics.chamfer_distance(a, a, GRID, n_samples=N) < 1e-5
     assert metrics.hausdorff_distance(a, a, GRID, n_samples=N)[1] < 1e-5
     sphere = trimesh.creation.icosphere(3)

@@ -2,7 +2,7 @@
 
 A mesh is moved to the centre of its bounding box and divided by a power of two near its longest
 side before anything else, and the results are taken back afterwards. Every absolute tolerance of
-the libraries used (trimesh merges vertices closer than 1e-8, open3d ray casts in float32) then
+the libraries used (trimesh merges vertices closer than 1e-8, for one) then
 acts relative to the mesh's size, and a mesh scaled by a power of two gives bit-identical results.
 """
 

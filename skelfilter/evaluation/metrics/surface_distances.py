@@ -1,7 +1,7 @@
 """Distances between a result mesh and the clean mesh, in voxels of a given
 `skelfilter.mesh.voxelize.Grid` (world distances divided by ``grid.pitch``): Chamfer, Hausdorff,
 normal and sharp-edge errors, and the literature's θ and E_v. Closest-point distances are exact
-point-to-surface distances from open3d's ray-casting scene (Embree), taken at area-uniform samples
+point-to-surface distances (`skelfilter.mesh.closest_points`, libigl's AABB tree), taken at area-uniform samples
 drawn with a fixed seed, so every measure is deterministic.
 """
 
