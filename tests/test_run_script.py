@@ -83,6 +83,92 @@ def test_pymeshlab_saved_script_gives_what_pymeshlab_gives(noisy_file, tmp_path)
     assert np.array_equal(written.faces, theirs.faces)
 
 
+# In a child Python: the script pymeshlab saves after applying each filter named on the command line
+# to a small closed mesh, as FOLDER/<filter>.mlx. Each filter's name goes to FOLDER/started first, so
+# that a filter that crashes pymeshlab (those needing OpenGL or rasters) is passed over when the
+# child is started again; one that runs over 2 s is stopped the same way (faulthandler exits).
+_WRITE_SCRIPTS = r"""
+import faulthandler, os, sys
+import pymeshlab
+folder, names = sys.argv[1], sys.argv[2:]
+started = os.path.join(folder, "started")
+done = set(open(started).read().split()) if os.path.exists(started) else set()
+for name in names:
+    if name in done:
+        continue
+    with open(started, "a") as f:
+        f.write(name + "\n")
+    ms = pymeshlab.MeshSet()
+    ms.create_sphere(subdiv=1)
+    ms.clear_filter_script()
+    faulthandler.dump_traceback_later(2, exit=True)
+    try:
+        getattr(ms, name)()
+    except Exception:  # a mesh this filter cannot take (pymeshlab's exceptions share no base)
+        continue
+    finally:
+        faulthandler.cancel_dump_traceback_later()
+    ms.save_filter_script(os.path.join(folder, name + ".mlx"))
+"""
+
+
+@pytest.fixture(scope="module")
+def pymeshlab_written(tmp_path_factory):
+    """``{pymeshlab filter: the .mlx pymeshlab writes for it}`` for every filter that reads and writes
+    no file and that pymeshlab applies to a small closed mesh without other inputs."""
+    from skelfilter.meshlab import pymeshlab_filters
+
+    folder = tmp_path_factory.mktemp("pymeshlab-written")
+    names = [n for n in pymeshlab.filter_list() if not pymeshlab_filters.touches_files(n)]
+    for _ in names:  # at most one start per filter
+        r = subprocess.run([sys.executable, "-c", _WRITE_SCRIPTS, str(folder), *names], capture_output=True,
+                           timeout=600)
+        if r.returncode == 0:
+            break
+    written = {n: folder / f"{n}.mlx" for n in names if (folder / f"{n}.mlx").exists()}
+    assert len(written) > 150
+    return written
+
+
+def test_every_filter_name_pymeshlab_writes_resolves_to_its_filter(pymeshlab_written):
+    from skelfilter.meshlab import pymeshlab_filters
+
+    wrong, refused = {}, {}
+    for name, path in pymeshlab_written.items():
+        written = mlx.parse(mlx.read_bytes(path), str(path))[-1].name
+        if pymeshlab_filters.python_filter_name(written) != name:
+            wrong[written] = (name, pymeshlab_filters.python_filter_name(written))
+        try:
+            scripts.read_script(path)
+        except InputError as exc:
+            refused[name] = str(exc)
+    assert not wrong
+    # the whole script is taken, but for a parameter that pymeshlab's own calls cannot be given
+    assert all("pymeshlab cannot take a parameter of type" in error for error in refused.values()), refused
+
+
+# the filters whose names skelfilter refused though pymeshlab writes them (issue 49)
+ONCE_REFUSED = ("meshing_re_orient_faces_coherently", "meshing_surface_subdivision_doo_sabin",
+                "meshing_re_orient_faces_by_geometry", "apply_coord_cubic_stylization",
+                "apply_coord_developability_of_mesh", "compute_normal_by_function_per_face",
+                "compute_scalar_ambient_occlusion", "compute_scalar_by_shape_diameter_function_per_vertex",
+                "compute_scalar_by_volumetric_obscurance",
+                "compute_scalar_by_heat_geodesic_distance_from_selection_per_vertex",
+                "create_dodecahedron_sym", "generate_alpha_wrap")
+
+
+def test_scripts_pymeshlab_writes_run_with_run_script(pymeshlab_written, tmp_path):
+    # one script of them all, on the small sphere pymeshlab wrote them for
+    filters = [f for name in ONCE_REFUSED
+               for f in mlx.parse(mlx.read_bytes(pymeshlab_written[name]), name)]
+    script = tmp_path / "written.mlx"
+    script.write_text(mlx.script_text(filters))
+    trimesh.creation.icosphere(subdivisions=1).export(tmp_path / "sphere.ply")
+    r = run_cli("run-script", script, tmp_path / "sphere.ply", tmp_path / "out.ply")
+    assert r.returncode == 0, r.stderr
+    assert len(trimesh.load(tmp_path / "out.ply", process=False).faces) > 0
+
+
 def test_layers_behave_as_in_meshlab(noisy_file, tmp_path):
     script = tmp_path / "layers.mlx"
     params = DenoiseParams(resolution=40, importance="euclidean")

@@ -87,11 +87,19 @@ _PARAM_RE = re.compile(r"^\t(\w+) : (.+?) = (.*)$")
 
 def python_filter_name(meshlab_name):
     """pymeshlab's name of a MeshLab filter ('TwoStep Smooth' -> 'apply_coord_two_steps_smoothing'),
-    or None if pymeshlab has no such filter."""
+    or None if pymeshlab has no such filter.
+
+    Most names lead to it as pymeshlab named its filters until 2022.2 (lowercased, words joined by
+    '_') and its table of the renames since (keys.txt); a filter the table does not reach (added to
+    MeshLab later, or renamed there: 'Re-Orient all faces coherently') is found by the name pymeshlab
+    writes for it (`_written_name`).
+    """
     renames, available = _pymeshlab_names()
     old = re.sub(r"[^0-9a-z]+", "_", meshlab_name.lower()).strip("_")
     new = renames.get(old, old)
-    return new if new in available else None
+    if new in available:
+        return new
+    return _written_name(meshlab_name)
 
 
 @functools.lru_cache(maxsize=1)
@@ -108,6 +116,107 @@ def _pymeshlab_names():
                 if len(parts) == 2:
                     renames[parts[0]] = parts[1]
     return renames, frozenset(pymeshlab.filter_list())
+
+
+# how many of pymeshlab's filters, likeliest first, are applied to find a MeshLab name (_written_name)
+_CANDIDATES = 6
+
+
+@functools.cache
+def _written_name(meshlab_name):
+    """pymeshlab's filter that writes ``meshlab_name`` into a script, among the filters likeliest to
+    (`_likely_filters`); None if none does.
+
+    pymeshlab tells a filter's MeshLab name only in the scripts it saves, so each candidate (files
+    aside) is applied to a small sphere, else to the sphere with a hole (a parametrization needs a
+    boundary), in a child process, and its name read from the script saved: the answer is
+    pymeshlab's own. A filter that crashes pymeshlab there (one that needs OpenGL or cameras) or runs
+    over 10 s is passed over. The first candidate that writes the name ends the search. About a
+    second, once per process and name.
+    """
+    candidates = _likely_filters(meshlab_name)
+    with temporary_folder("skelfilter-meshlab-names-") as work:
+        with open(os.path.join(work, "names.json"), "w", encoding="utf-8") as f:
+            json.dump({"wanted": meshlab_name, "candidates": candidates}, f)
+        started = 0
+        while started < len(candidates):
+            try:
+                proc = run_child(__name__, "_written_names_main", work, 120, "pymeshlab, writing filter names")
+            except SkelfilterError:  # a filter crashed pymeshlab or hung: the next child passes it over
+                proc = None
+            now = len(_lines(os.path.join(work, "started")))
+            if (proc is not None and proc.returncode == 0) or now == started:
+                break
+            started = now
+        written = dict(json.loads(line) for line in _lines(os.path.join(work, "written.jsonl")))
+    return written.get(meshlab_name)
+
+
+def _likely_filters(meshlab_name):
+    """The `_CANDIDATES` filters (files aside) whose pymeshlab names share the most words with
+    ``meshlab_name``; words match on their first six letters ('developable', 'developability')."""
+    def words(name):
+        return {w for w in re.split(r"[^0-9a-z]+", name.lower()) if w}
+
+    def same(a, b):
+        n = min(len(a), len(b), 6)
+        return a[:n] == b[:n] and (n >= 3 or a == b)
+
+    wanted = words(meshlab_name)
+    _, available = _pymeshlab_names()
+    shared = {name: sum(any(same(w, v) for v in words(name)) for w in wanted) for name in available}
+    ranked = sorted((name for name in shared if shared[name] and not touches_files(name)),
+                    key=lambda name: (-shared[name], name))
+    return ranked[:_CANDIDATES]
+
+
+def _lines(path):
+    try:
+        with open(path, encoding="utf-8") as f:
+            return f.read().splitlines()
+    except FileNotFoundError:
+        return []
+
+
+def _written_names_main(workdir):
+    """Entry point of `_written_name`'s child: names.json in (the name wanted, the candidates); each
+    candidate appended to ``started`` before it is applied (so that the next child passes over one
+    that crashed), and ``[MeshLab's name, pymeshlab's name]`` to written.jsonl once pymeshlab wrote
+    it; ends at the name wanted."""
+    import faulthandler
+
+    pymeshlab = need("pymeshlab", "MeshLab's filters")
+
+    with open(os.path.join(workdir, "names.json"), encoding="utf-8") as f:
+        task = json.load(f)
+    started = set(_lines(os.path.join(workdir, "started")))
+    script = os.path.join(workdir, "written.mlx")
+    for name in task["candidates"]:
+        if name in started:
+            continue
+        with open(os.path.join(workdir, "started"), "a", encoding="utf-8") as f:
+            f.write(name + "\n")
+        for with_hole in (False, True):
+            ms = pymeshlab.MeshSet()
+            ms.create_sphere(subdiv=1)
+            if with_hole:
+                ms.compute_selection_by_condition_per_face(condselect="fi == 0")
+                ms.meshing_remove_selected_faces()
+            ms.clear_filter_script()
+            faulthandler.dump_traceback_later(10, exit=True)
+            try:
+                getattr(ms, name)()
+            except Exception:  # a mesh the filter cannot take (pymeshlab's exceptions share no base)
+                continue
+            finally:
+                faulthandler.cancel_dump_traceback_later()
+            ms.save_filter_script(script)
+            written = mlx.parse(mlx.read_bytes(script), script)[-1].name
+            with open(os.path.join(workdir, "written.jsonl"), "a", encoding="utf-8") as f:
+                f.write(json.dumps([written, name]) + "\n")
+            if written == task["wanted"]:
+                return
+            break
 
 
 def python_param_name(meshlab_name):
