@@ -20,7 +20,7 @@ from skelfilter.runtime.compiled import njit
 CUBE = np.ones((3, 3, 3), dtype=bool)
 # Voxels added to the estimated noise height before a removed part counts as a feature: the
 # estimate is a 99 % quantile of the noise's peaks, and the tallest noise blobs pass it by a voxel or
-# two (measured on the tuning shapes of benchmarks/quality.py, see docs/noise-estimate.md).
+# two (measured on the tuning shapes of benchmarks/quality.py, see docs/design/noise-estimate.md).
 MARGIN = 2.0
 # Voxels from the nearest tall removed voxel beyond which a removed skin is an edge's, not noise's
 # (bumps' feet reach about r = 2 voxels around them; 2, 3 and 4 were measured).

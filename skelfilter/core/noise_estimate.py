@@ -22,7 +22,7 @@ the 17 benchmark shapes clean, as volumes at 128-224 voxels on two grid offsets,
 of their cells (a gear's teeth: each tooth's tip is one ridge whose corners rise less than a voxel
 above it); the thesis' noise at 160 voxels is found on the same 150 of 170 cases as with the former
 peaks (5³-window maxima, which counted the teeth's corners apart: 0.10 on the clean gear, noise), and
-the height found is within a voxel of theirs (median +0.03). See ``docs/noise-estimate.md``.
+the height found is within a voxel of theirs (median +0.03). See ``docs/design/noise-estimate.md``.
 """
 
 from dataclasses import dataclass

@@ -19,7 +19,7 @@ would change there keeps the input's voxels. So a wide plate is smoothed at sigm
 voxels thick keeps its own voxels, noise and all.
 
 Chosen on the tuning shapes of ``benchmarks/volumes.py`` (segmentation-like noise of standard
-deviation 0.6 and 1 voxel at resolution 128); see ``docs/noise-estimate.md``.
+deviation 0.6 and 1 voxel at resolution 128); see ``docs/design/noise-estimate.md``.
 """
 
 from dataclasses import dataclass
