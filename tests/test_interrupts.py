@@ -199,3 +199,51 @@ def test_a_signal_while_a_kernel_compiles_acts_once_it_is_ready():
             "signal.SIGTERM in signal.pthread_sigmask(signal.SIG_BLOCK, []))\n")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert (proc.returncode, proc.stdout, proc.stderr) == (0, "terminated 1 4 True\n", "")
+
+
+LIBRARY_RUNS = r'''
+import sys
+import trimesh
+from skelfilter.core import importance
+from skelfilter.mesh import pipeline
+
+noisy, _, _ = pipeline.noisy_mesh(trimesh.creation.box((1.0, 0.8, 0.6)), resolution=128, seed=1)
+search = importance.geodesic_importance
+def announced(*args):
+    print("searching", flush=True)
+    return search(*args)
+importance.geodesic_importance = announced
+while sys.stdin.readline():  # one run per line; both stages: two searches each
+    try:
+        pipeline.denoise_mesh(noisy, resolution=128, noise_height=5, output_mesh="closed", stages="both")
+        print("finished", flush=True)
+    except KeyboardInterrupt as exc:
+        print(type(exc).__name__, flush=True)
+'''
+
+
+def test_ctrl_c_in_the_geodesic_search_of_a_library_run_raises_keyboard_interrupt():
+    """Ctrl-C in a notebook (a library call, no shield) during the A* of either stage: a segmentation
+    fault in 1 of 3 tries, and in the background stage ``SystemError: CPUDispatcher(astar) returned a
+    result with an exception set``. Each compiled kernel called from the main thread holds the signal
+    until it returns; then Python raises KeyboardInterrupt, and the interpreter carries on."""
+    proc = subprocess.Popen([sys.executable, "-c", LIBRARY_RUNS], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    outcomes = []
+    try:
+        for run, delay_s in enumerate((0.02, 0.02, 0.15, 0.15, 0.3, 0.3, 0.45, 0.45)):
+            proc.stdin.write("run\n")
+            proc.stdin.flush()
+            for _ in range(1 + run % 2):  # the first search, or the background stage's
+                assert proc.stdout.readline() == "searching\n", proc.communicate(timeout=60)[1][-2000:]
+            time.sleep(delay_s)
+            proc.send_signal(signal.SIGINT)
+            outcomes.append(proc.stdout.readline().strip())
+            if outcomes[-1] != "KeyboardInterrupt":
+                break
+        proc.stdin.close()
+        proc.wait(timeout=120)
+    finally:
+        proc.kill()
+    assert outcomes == ["KeyboardInterrupt"] * 8 and proc.returncode == 0, (
+        outcomes, proc.returncode, proc.stderr.read()[-2000:])

@@ -16,6 +16,7 @@ signal blocks the others, so a second Ctrl-C cannot break the cleanup of the fir
 import shutil
 import signal
 import tempfile
+import threading
 from contextlib import contextmanager
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
@@ -86,22 +87,57 @@ def deferred():
     just before the block (Python runs the handler at its next instruction, which may be inside) is
     held too: an interrupt inside an import of VTK's modules left them half loaded, and the process
     crashed on its way out.
+
+    Blocking the signals in this thread is not enough where the handlers are the caller's (a library
+    call: Python's ``KeyboardInterrupt``, a notebook's): the signal reaches another thread that does
+    not block it (a BLAS thread), and Python runs the handler in the main thread at its next
+    instruction, wherever that is, numba's return from a kernel among them. So in the main thread the
+    caller's handlers are lent to `_raise` for the block, which keeps the signal; as the block ends
+    they are back, and the signal is raised again for them to act on as it came.
     """
     old = block()
     _held["depth"] += 1
+    lent = {}
     acted = False
     try:
+        _lend_handlers(lent)
         yield
     except Interrupted:
         acted = True  # at a `checkpoint`: the handler left the signals blocked, and they stay so
         raise
     finally:
+        if lent:
+            _give_back(lent, old)
         _held["depth"] -= 1
-        if _held["depth"] == 0 and _held["signum"] is not None:
+        if not lent and _held["depth"] == 0 and _held["signum"] is not None:
             signum, _held["signum"] = _held["signum"], None
             raise Interrupted(signum)  # the handler left the signals blocked, as it does when it raises
-        if not acted:
+        if not acted and not lent:
             signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def _lend_handlers(lent):
+    """In the main thread, put `_raise` in the place of the caller's Python handlers; ``lent`` gets
+    each one replaced, by signal. Handlers that are not Python's (the default action, an ignored
+    signal, one set in C) stay."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    for signum in SIGNALS:
+        handler = signal.getsignal(signum)
+        if callable(handler) and handler is not _raise:
+            signal.signal(signum, _raise)
+            lent[signum] = handler
+
+
+def _give_back(lent, old):
+    """The caller's handlers and signal mask back; a signal `_raise` kept meanwhile is raised again,
+    so that the caller's handler acts on it now."""
+    for signum, handler in lent.items():
+        signal.signal(signum, handler)  # runs `_raise` first for a signal that just came: it is kept
+    signum, _held["signum"] = _held["signum"], None
+    signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    if signum is not None:
+        signal.raise_signal(signum)
 
 
 def checkpoint():
