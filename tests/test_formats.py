@@ -19,6 +19,10 @@ def test_close_keeps_the_units(tmp_path):
     sphere.export(tmp_path / "in.glb")
     denoise_file(tmp_path / "in.glb", tmp_path / "out.glb", CLOSE)
     assert mesh_files.load_mesh(tmp_path / "out.glb").units == "mm"
+    text = sphere.export(file_type="ply", encoding="ascii").decode()
+    (tmp_path / "in.ply").write_text(text.replace("format ascii 1.0\n", "format ascii 1.0\ncomment units mm\n"))
+    denoise_file(tmp_path / "in.ply", tmp_path / "out.ply", CLOSE)
+    assert b"\ncomment units mm\n" in (tmp_path / "out.ply").read_bytes().split(b"end_header")[0]
 
 
 def prism(outline, height=1.0):
@@ -79,3 +83,104 @@ def test_a_coff_keeps_its_vertex_colours(tmp_path):
         kept = slice(None) if name != "out.obj" else slice(3)  # OBJ colours have no alpha
         back = mesh_files.load_mesh(tmp_path / name).visual.vertex_colors
         assert np.array_equal(back[:, kept], colours[:, kept]), name
+
+
+def ply_text(vertices, faces, vertex_columns=(), face_columns=(), comments=(), vertex_type="float"):
+    """An ASCII PLY file: ``vertex_columns`` / ``face_columns`` are (PLY type, name, values) after x, y, z /
+    after the face's vertex indices."""
+    head = ["ply", "format ascii 1.0", *comments, f"element vertex {len(vertices)}"]
+    head += [f"property {vertex_type} {n}" for n in "xyz"] + [f"property {t} {n}" for t, n, _ in vertex_columns]
+    head += [f"element face {len(faces)}", "property list uchar int vertex_indices"]
+    head += [f"property {t} {n}" for t, n, _ in face_columns] + ["end_header"]
+    rows = [" ".join([f"{x:.9g}" for x in v] + [f"{c[2][i]:.9g}" for c in vertex_columns])
+            for i, v in enumerate(vertices)]
+    rows += [" ".join([str(len(f)), *map(str, f)] + [f"{c[2][i]:.9g}" for c in face_columns])
+             for i, f in enumerate(faces)]
+    return "\n".join(head + rows) + "\n"
+
+
+def test_a_ply_of_quads_and_triangles_with_face_colours_is_read(tmp_path):
+    """trimesh read it as 'shapes (8, 12) and (6, 4) are not aligned' (ASCII) or refused it (binary)."""
+    box = trimesh.creation.box(extents=(1, 1, 1))
+    quads = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4]]  # the box's sides but x = +0.5
+    faces = quads + [[1, 5, 7], [1, 7, 3]]
+    rgb = np.random.default_rng(0).integers(0, 256, (len(faces), 3))
+    columns = [("uchar", name, rgb[:, i]) for i, name in enumerate(("red", "green", "blue"))]
+    (tmp_path / "in.ply").write_text(ply_text(box.vertices, faces, face_columns=columns))
+    binary = trimesh.Trimesh(box.vertices, box.faces)  # the same file in binary, through our writer
+    for name in ("in.ply", "binary.ply"):
+        if name == "binary.ply":
+            mesh_files.save_mesh(mesh_files.load_mesh(tmp_path / "in.ply"), tmp_path / name)
+        mesh = mesh_files.load_mesh(tmp_path / name)
+        assert mesh.faces.shape == (12, 3) and mesh.is_watertight and np.isclose(mesh.volume, 1.0), name
+        assert np.array_equal(mesh.visual.face_colors[:, :3], rgb[[0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 6]]), name
+    assert binary.is_watertight
+    assert "element face 7" in (tmp_path / "binary.ply").read_bytes().decode("latin-1")  # quads written back
+
+
+def test_stanford_tristrips_are_read(tmp_path):
+    """A box as two strips (Stanford's ``element tristrips``, -1 ending a strip): closed, outward."""
+    box = trimesh.creation.box(extents=(1, 1, 1))  # vertex i at (+-0.5): x from bit 2, y from bit 1, z from bit 0
+    strips = [0, 1, 2, 3, 6, 7, 4, 5, 0, 1, -1, 1, 5, 3, 7, -1, 0, 2, 4, 6, -1]
+    head = ["ply", "format ascii 1.0", "element vertex 8", "property float x", "property float y", "property float z",
+            "element tristrips 1", "property list int int vertex_indices", "end_header"]
+    rows = [" ".join(f"{x:g}" for x in v) for v in box.vertices] + [" ".join(map(str, [len(strips), *strips]))]
+    (tmp_path / "strips.ply").write_text("\n".join(head + rows) + "\n")
+    mesh = mesh_files.load_mesh(tmp_path / "strips.ply")
+    assert len(mesh.faces) == 12 and mesh.is_watertight and np.isclose(abs(mesh.volume), 1.0)
+    assert mesh.is_winding_consistent
+
+
+def test_a_ply_of_concave_polygons_is_triangulated_inside_them(tmp_path):
+    vertices, faces = prism(L_SHAPE)
+    (tmp_path / "l.ply").write_text(ply_text(vertices, faces))
+    mesh = mesh_files.load_mesh(tmp_path / "l.ply")
+    assert np.isclose(mesh.area, 14.0) and np.isclose(mesh.volume, 3.0)
+
+
+def test_a_ply_comes_back_whole(tmp_path, caplog):
+    """Its float32 coordinates, other vertex properties (a quality, texture coordinates), face
+    properties, comments and texture reference, as they were; an output that cannot hold them names them."""
+    from PIL import Image
+
+    from skelfilter.io import ply
+
+    sphere = trimesh.creation.icosphere(3)
+    n = len(sphere.vertices)
+    rng = np.random.default_rng(1)
+    quality, uv = rng.random(n), rng.random((n, 2))
+    Image.new("RGB", (8, 8), (200, 10, 10)).save(tmp_path / "skin.png")
+    text = ply_text(sphere.vertices, sphere.faces,
+                    [("float", "quality", quality), ("float", "s", uv[:, 0]), ("float", "t", uv[:, 1])],
+                    [("uchar", "flags", np.arange(len(sphere.faces)) % 7)],
+                    ["comment TextureFile skin.png", "comment units mm", "obj_info scanned 2024"])
+    (tmp_path / "in.ply").write_text(text)
+    before = ply.read_ply((tmp_path / "in.ply").read_bytes())
+    assert np.allclose(mesh_files.load_mesh(tmp_path / "in.ply").visual.uv, uv, atol=1e-6)
+    denoise_file(tmp_path / "in.ply", tmp_path / "out.ply", DenoiseParams())
+    after = ply.read_ply((tmp_path / "out.ply").read_bytes())
+    assert after.header_lines == before.header_lines
+    for old, new in zip(before.elements, after.elements):
+        assert [(p.name, p.type, p.count_type) for p in old.properties] == \
+            [(p.name, p.type, p.count_type) for p in new.properties]
+        for name, values in old.data.items():
+            assert all(np.array_equal(a, b) for a, b in zip(values, new.data[name])) if isinstance(values, tuple) \
+                else np.array_equal(values, new.data[name]), name
+    caplog.set_level("WARNING")
+    denoise_file(tmp_path / "in.ply", tmp_path / "out.stl", DenoiseParams())
+    said = [r.getMessage() for r in caplog.records if "not written" in r.getMessage()]
+    assert len(said) == 1 and "texture coordinates" in said[0] and "quality" in said[0] and "flags" in said[0], said
+
+
+def test_a_textured_mesh_keeps_its_texture_in_a_ply_output(tmp_path):
+    """PLY holds texture coordinates and names its image: an OBJ's texture is written beside it."""
+    from PIL import Image
+
+    sphere = trimesh.creation.icosphere(3)
+    uv = np.random.default_rng(2).random((len(sphere.vertices), 2))
+    textured = trimesh.Trimesh(sphere.vertices, sphere.faces, process=False,
+                               visual=trimesh.visual.TextureVisuals(uv=uv, image=Image.new("RGB", (4, 4), (9, 8, 7))))
+    textured.export(tmp_path / "in.obj")
+    denoise_file(tmp_path / "in.obj", tmp_path / "out.ply", DenoiseParams())
+    back = mesh_files.load_mesh(tmp_path / "out.ply")
+    assert np.allclose(back.visual.uv, uv, atol=1e-6) and back.visual.material.image.getpixel((0, 0)) == (9, 8, 7)

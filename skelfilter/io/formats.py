@@ -9,6 +9,7 @@ one line that lists them all.
 """
 
 import os
+import re
 
 from skelfilter.errors import InputError
 from skelfilter.io.volume_formats import FORMATS as VOLUME_FORMATS
@@ -68,7 +69,7 @@ def input_kind(path):
 
 
 def is_point_cloud(path):
-    """True for a PCD/XYZ/XYZN/PTS file, or a PLY file whose header declares no faces."""
+    """True for a PCD/XYZ/XYZN/PTS file, or a PLY file whose header declares no faces (nor tristrips)."""
     ext = suffix(path)
     if ext in POINT_FORMATS and ext not in MESH_FORMATS:
         return True
@@ -79,4 +80,5 @@ def is_point_cloud(path):
     if b"end_header" not in head:  # a malformed file: the mesh reader says what is wrong
         return False
     header = head.split(b"end_header")[0]
-    return header.startswith(b"ply") and b"element face" not in header.replace(b"element face 0", b"")
+    declared = dict(re.findall(rb"^element[ \t]+(\w+)[ \t]+(\d+)", header, re.M))
+    return header.startswith(b"ply") and not any(int(declared.get(name, 0)) for name in (b"face", b"tristrips"))

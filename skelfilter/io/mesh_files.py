@@ -10,7 +10,7 @@ import numpy as np
 import trimesh
 
 from skelfilter.errors import InputError
-from skelfilter.io import off, polygons, text_rows
+from skelfilter.io import off, ply, polygons, text_rows
 from skelfilter.io.formats import MESH_FORMATS, SINGLE_PRECISION_FORMATS, suffix
 from skelfilter.io.input_files import check_input_file
 from skelfilter.io.output_files import atomic_write, check_sidecars
@@ -38,8 +38,7 @@ def load_mesh(path):
     check_input_file(path, "mesh")
     if os.path.getsize(path) == 0:
         raise InputError(f"{path}: the file is empty")
-    options, wedge_uv = _ply_options(path) if ext == "ply" else ({}, False)
-    text = _read(path) if ext in ("obj", "off") else None
+    text = _read(path) if ext in ("obj", "off", "ply") else None
     plain = _plain_obj(text) if ext == "obj" else None
     if ext == "obj":
         plain = _split_concave_obj(plain if plain is not None else text) or plain
@@ -47,15 +46,17 @@ def load_mesh(path):
     try:
         if ext == "off":
             mesh, dropped = off.load_off(text)
+        elif ext == "ply":
+            mesh, dropped = _load_ply(path, text)
         elif plain is not None:  # read from memory, its materials from its folder
             mesh = trimesh.load(io.BytesIO(plain), file_type=ext, force="mesh", process=False,
                                 resolver=trimesh.resolvers.FilePathResolver(os.path.dirname(os.path.abspath(path))))
         elif _utf8(path):
-            mesh = trimesh.load(path, file_type=ext, force="mesh", process=False, **options)
+            mesh = trimesh.load(path, file_type=ext, force="mesh", process=False)
         else:  # trimesh hashes the name as UTF-8: such a file is read from an open file, its folder beside
             with open(path, "rb") as f:
                 mesh = trimesh.load(f, file_type=ext, force="mesh", process=False,
-                                    resolver=trimesh.resolvers.FilePathResolver(os.path.dirname(path)), **options)
+                                    resolver=trimesh.resolvers.FilePathResolver(os.path.dirname(path)))
     except Exception as exc:  # trimesh raises many kinds on corrupt files
         raise InputError(f"{path}: malformed {ext.upper()} file ({str(exc) or type(exc).__name__})") from None
     problem = _malformed(path, ext, mesh)
@@ -66,9 +67,6 @@ def load_mesh(path):
             log.warning("%s: %s", path, line)
     if dropped:
         log.warning("%s: its %s are not read", path, " and ".join(dropped))
-    if wedge_uv:  # the texture coordinates were read on the vertices, wrongly: the geometry alone
-        log.warning("%s: its per-wedge texture coordinates are not kept (the mesh is read without them)", path)
-        mesh = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
     return validate_mesh(mesh, path)
 
 
@@ -178,23 +176,56 @@ def _utf8(path):
     return True
 
 
-def _ply_options(path):
-    """How trimesh should read a PLY file: without its texture when the image it names is missing
-    (one warning line), with the vertices as the file indexes them when its faces carry per-wedge
-    texture coordinates (MeshLab's ``texcoord``: trimesh would split every vertex per face). Returns
-    the options and whether the faces carry them."""
-    with open(path, "rb") as f:
-        header = f.read(1 << 16).split(b"end_header")[0].decode("latin-1")
-    options = {}
-    texture = re.search(r"^comment\s+texturefile\s+(.+?)\s*$", header, re.M | re.I)
-    if texture and not os.path.isfile(os.path.join(os.path.dirname(os.path.abspath(path)), texture.group(1))):
-        log.warning("%s: its texture %s is missing; the mesh is read without it", path, texture.group(1))
-        options["skip_materials"] = True
-    faces = header.split("element face", 1)[1].split("element", 1)[0] if "element face" in header else ""
-    wedge_uv = re.search(r"^property\s+list\s+\w+\s+\w+\s+texcoord\s*$", faces, re.M) is not None
-    if wedge_uv:
-        options["fix_texture"] = False
-    return options, wedge_uv
+def _load_ply(path, data):
+    """A mesh of a PLY file (`ply.read_ply`), carrying it (``metadata["ply"]``); its texture image from
+    the file's folder (one warning line when missing), and what of it the mesh does not hold."""
+    source = ply.read_ply(data)
+    vertex = source.element("vertex")
+    if vertex is None or ply.vertex_fields(source, "xyz") is None:
+        raise ValueError("no vertex element with x, y and z")
+    vertices = ply.vertex_fields(source, "xyz")
+    triangles, polygon = ply.faces_of(source, vertices)
+    uv = next((ply.vertex_fields(source, names) for names in ply.UV_NAMES
+               if ply.vertex_fields(source, names) is not None), None)
+    image = _texture_image(path, source.texture_file)
+    face_colours = ply.colours(source.element("face"))
+    vertex_colours = ply.colours(vertex)
+    if vertex_colours is None:
+        vertex_colours = ply.colours(vertex, "diffuse_")
+    if uv is not None:  # a PLY output writes the colours from the file it carries
+        visual = trimesh.visual.TextureVisuals(uv=uv, image=image)
+    elif vertex_colours is not None:
+        visual = trimesh.visual.ColorVisuals(vertex_colors=vertex_colours)
+    elif face_colours is not None:
+        white = np.full((1, 4), 255, np.uint8)  # a tristrip's triangles have no face of their own
+        visual = trimesh.visual.ColorVisuals(face_colors=np.concatenate([face_colours, white])[polygon])
+    else:
+        visual = None
+    face = source.element("face")
+    if face is not None and "texcoord" in face.data:
+        log.warning("%s: its per-wedge texture coordinates are not kept (the mesh is read without them)", path)
+    mesh = trimesh.Trimesh(vertices, triangles, visual=visual, process=False)
+    mesh.metadata["ply"] = source
+    return mesh, []
+
+
+def _texture_image(path, name):
+    """The image a PLY file's ``comment TextureFile`` names, from its folder; None without one (one
+    warning line where it is missing or Pillow is not installed)."""
+    if name is None:
+        return None
+    target = os.path.join(os.path.dirname(os.path.abspath(path)), name)
+    if not os.path.isfile(target):
+        log.warning("%s: its texture %s is missing; the mesh is read without it", path, name)
+        return None
+    try:
+        from PIL import Image
+    except ImportError:
+        log.warning("%s: its texture %s is not read (Pillow is not installed)", path, name)
+        return None
+    with Image.open(target) as image:
+        image.load()
+        return image.copy()
 
 
 def _malformed(path, ext, mesh):
@@ -290,6 +321,8 @@ def check_mesh_output(mesh, path):
     if ext == "obj" and getattr(mesh.visual, "material", None) is not None:
         stem = os.path.splitext(os.path.abspath(str(path)))[0]
         check_sidecars(str(path), [f"{stem}.mtl", *glob.glob(glob.escape(stem) + "_0.*")])
+    if ext == "ply" and _texture_png(mesh) is not None:
+        check_sidecars(str(path), [_ply_texture_path(path)])
     if ext not in SINGLE_PRECISION_FORMATS or len(mesh.vertices) == 0:
         return
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
@@ -306,39 +339,142 @@ def save_mesh(mesh, path, protect=()):
 
     PLY files get double-precision vertices, as MeshLab writes them, so no digit of the coordinates
     is lost (trimesh's PLY writer rounds them to float32), and the mesh's per-vertex or per-face
-    colours (``red``, ``green``, ``blue``, ``alpha``); the other formats are trimesh's (OBJ keeps
-    UVs and the texture).
+    colours (``red``, ``green``, ``blue``, ``alpha``); a mesh read from a PLY file with its vertices
+    (moved or not) writes that file back, every element, property and comment in its own type
+    (`_ply_of`). OFF files keep vertex and face colours; the other formats are trimesh's (OBJ keeps
+    UVs and the texture). What of the mesh the output cannot hold is named in one warning line.
     """
     ext = _extension(path)
     check_mesh_output(mesh, path)
+    source = mesh.metadata.get("ply")
+    source = source if isinstance(source, ply.PlyFile) else None
     if ext == "ply":
-        kind = getattr(mesh.visual, "kind", None)
-        vertex_colours = {} if kind != "vertex" else _colour_fields(mesh.visual.vertex_colors)
-        face_colours = {} if kind != "face" else _colour_fields(mesh.visual.face_colors)
-        face_fields = [("count", "u1"), ("vertex_indices", "<i4", (3,))]
-        face_fields += [(name, "u1") for name in face_colours]
-        faces = np.empty(len(mesh.faces), dtype=face_fields)
-        faces["count"] = 3
-        faces["vertex_indices"] = mesh.faces
-        for name, values in face_colours.items():
-            faces[name] = values
-        _save_ply(path, _vertex_records(mesh.vertices, vertex_colours, "<f8"), faces, protect)
-        return
-    if ext == "obj":
+        out, sidecars = _ply_of(mesh, source), {}
+        image = _texture_png(mesh) if not _same_vertices(mesh, source) else None
+        if image is not None:  # the texture beside the file, as the OBJ's
+            sidecars[_ply_texture_path(path)] = image
+            out.header_lines.append(f"comment TextureFile {os.path.basename(_ply_texture_path(path))}")
+        _write_bytes(path, ply.ply_bytes(out), protect, sidecars)
+    elif ext == "obj":
         _save_obj(mesh, path, protect)
-        return
-    if ext == "off":
+    elif ext == "off":
         _write_bytes(path, off.off_text(mesh, _decimal_places(mesh.vertices)).encode("ascii"), protect)
-        return
-    atomic_write(path, lambda tmp: mesh.export(tmp, file_type=ext), protect)
+    else:
+        atomic_write(path, lambda tmp: mesh.export(tmp, file_type=ext), protect)
+    lost = _not_kept(mesh, source, ext)
+    if lost:
+        log.warning("%s: not written: %s", path, lost)
 
 
-def _write_bytes(path, data, protect):
+# What each output format holds of a mesh's visual (trimesh's kinds), besides the geometry.
+_VISUALS_HELD = {"ply": ("vertex", "face", "texture"), "obj": ("vertex", "texture"), "off": ("vertex", "face"),
+                 "glb": ("vertex", "face", "texture"), "stl": ()}
+
+
+def _same_vertices(mesh, source):
+    return source is not None and source.element("vertex").count == len(mesh.vertices)
+
+
+def _not_kept(mesh, source, ext):
+    """What of ``mesh`` (and of the PLY file it was read from, ``source``) a file of format ``ext``
+    does not hold, in words; empty when nothing."""
+    if ext == "ply" and _same_vertices(mesh, source) and _same_faces(mesh, source):
+        return ""  # the file it was read from, written back whole
+    kind = getattr(mesh.visual, "kind", None)
+    lost = []
+    if kind is not None and kind not in _VISUALS_HELD[ext]:
+        lost.append({"vertex": "vertex colours", "face": "face colours", "texture": "texture coordinates"}[kind])
+    if source is None:
+        return ", ".join(lost)
+    # The properties of the visual are kept, or named above.
+    held = {"vertex": set("xyz"), "face": {"vertex_indices", "vertex_index"}, "tristrips": {"vertex_indices"}}
+    if kind in ("vertex", "face"):
+        held[kind] |= {prefix + name for prefix in ("", "diffuse_") for name in ply.COLOUR_NAMES}
+    if kind == "texture":
+        held["vertex"] |= {name for names in ply.UV_NAMES for name in names}
+    if ext == "ply" and _same_vertices(mesh, source):
+        held["vertex"] = {p.name for p in source.element("vertex").properties}
+    for element in source.elements:
+        names = [p.name for p in element.properties if p.name not in held.get(element.name, ())]
+        if names:
+            lost.append(f"the input's {element.name} properties {', '.join(names)}")
+    reason = ("the mesh is new" if ext == "ply" and not _same_vertices(mesh, source)
+              else f"{ext.upper()} cannot hold them" if ext != "ply" else "the faces are new")
+    return f"{'; '.join(lost)} ({reason})" if lost else ""
+
+
+def _same_faces(mesh, source):
+    """Whether ``mesh``'s triangles are those of its PLY file's faces and tristrips."""
+    triangles, _ = ply.faces_of(source, ply.vertex_fields(source, "xyz"))
+    return np.array_equal(np.asarray(mesh.faces), triangles)
+
+
+def _ply_of(mesh, source):
+    """The PLY file to write for ``mesh``: the file it was read from (``source``) with its vertices moved,
+    their normals made anew where it has them, its faces kept where they are the mesh's; else the
+    mesh's vertices in double precision, its triangles and colours, and the source's comments."""
+    if _same_vertices(mesh, source):
+        out = ply.PlyFile(source.format, list(source.header_lines),
+                          [ply.Element(e.name, e.count, list(e.properties), dict(e.data)) for e in source.elements])
+        vertex = out.element("vertex")
+        types = {p.name: p.type for p in vertex.properties}
+        vertices = np.asarray(mesh.vertices, dtype=np.float64)
+        for axis, name in enumerate("xyz"):
+            vertex.data[name] = vertices[:, axis].astype(types[name])
+        if all(n in types for n in ("nx", "ny", "nz")) and not np.array_equal(vertices, ply.vertex_fields(source,
+                                                                                                          "xyz")):
+            for axis, name in enumerate(("nx", "ny", "nz")):
+                vertex.data[name] = mesh.vertex_normals[:, axis].astype(types[name])
+        if _same_faces(mesh, source):
+            return out
+        out.elements = [e for e in out.elements if e.name not in ("face", "tristrips")]
+    else:
+        notes = [] if source is None else [n for n in source.header_lines if not re.match(r"comment\s+texturefile",
+                                                                                           n, re.I)]
+        out = ply.PlyFile("binary_little_endian", notes, [])
+        vertex = ply.Element("vertex", len(mesh.vertices), [ply.Property(n, "f8") for n in "xyz"])
+        vertex.data = dict(zip("xyz", np.asarray(mesh.vertices, dtype=np.float64).T))
+        if getattr(mesh.visual, "kind", None) == "vertex":
+            _add_colours(vertex, mesh.visual.vertex_colors)
+        uv = getattr(mesh.visual, "uv", None) if getattr(mesh.visual, "kind", None) == "texture" else None
+        if uv is not None:  # as MeshLab names them
+            vertex.properties += [ply.Property(name, "f4") for name in ("texture_u", "texture_v")]
+            vertex.data.update(texture_u=np.asarray(uv)[:, 0], texture_v=np.asarray(uv)[:, 1])
+        out.elements.append(vertex)
+    face = ply.Element("face", len(mesh.faces), [ply.Property("vertex_indices", "i4", "u1")])
+    face.data["vertex_indices"] = (np.full(len(mesh.faces), 3), np.asarray(mesh.faces).reshape(-1))
+    if getattr(mesh.visual, "kind", None) == "face":
+        _add_colours(face, mesh.visual.face_colors)
+    out.elements.insert(out.elements.index(vertex) + 1, face)
+    return out
+
+
+def _add_colours(element, colours):
+    colours = np.asarray(colours, dtype=np.uint8)
+    element.properties += [ply.Property(name, "u1") for name in ply.COLOUR_NAMES]
+    element.data.update({name: colours[:, i] for i, name in enumerate(ply.COLOUR_NAMES)})
+
+
+def _write_bytes(path, data, protect, sidecars=None):
     def write(tmp):
         with open(tmp, "wb") as f:
             f.write(data)
 
-    atomic_write(path, write, protect)
+    atomic_write(path, write, protect, sidecars=sidecars)
+
+
+def _ply_texture_path(path):
+    return os.path.splitext(os.path.abspath(str(path)))[0] + "_0.png"
+
+
+def _texture_png(mesh):
+    """The PNG bytes of ``mesh``'s texture image, or None without one."""
+    image = getattr(getattr(mesh.visual, "material", None), "image", None)
+    if getattr(mesh.visual, "kind", None) != "texture" or image is None:
+        return None
+    buffer = io.BytesIO()
+    image.save(buffer, format="PNG")
+    return buffer.getvalue()
 
 
 def save_parts(meshes, path, protect=()):
@@ -407,11 +543,6 @@ def _decimal_places(points):
     significant digits of the largest coordinate, so a mesh a micron across keeps its shape."""
     largest = float(np.abs(points).max()) if len(points) else 0.0
     return int(np.clip(17 - np.floor(np.log10(largest)), 8, 330)) if largest > 0 else 8
-
-
-def _colour_fields(colours):
-    colours = np.asarray(colours, dtype=np.uint8)
-    return {name: colours[:, i] for i, name in enumerate(("red", "green", "blue", "alpha"))}
 
 
 def _vertex_records(points, properties, dtype):

@@ -10,6 +10,7 @@ left behind.
 
 import errno
 import os
+import re
 import stat
 import tempfile
 
@@ -197,7 +198,7 @@ def check_sidecars(path, sidecars):
 
 
 def _named_by(path, depth=2):
-    """Names of the files an existing OBJ output (or its material library) refers to."""
+    """Names of the files an existing OBJ output (or its material library) or PLY output refers to."""
     if depth == 0 or not os.path.isfile(path):
         return set()
     try:
@@ -207,6 +208,9 @@ def _named_by(path, depth=2):
         return set()
     names = set()
     for line in text.splitlines():
+        texture = re.match(r"comment\s+texturefile\s+(.+?)\s*$", line, re.I)  # a PLY's texture
+        if texture:
+            names.add(os.path.basename(texture.group(1)))
         words = line.split(maxsplit=1)
         if len(words) == 2 and words[0] in ("mtllib", "map_Kd", "map_Ka", "map_Ks", "map_d", "map_bump"):
             name = os.path.basename(words[1].strip())

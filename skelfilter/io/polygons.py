@@ -55,20 +55,26 @@ def spans(starts, lengths):
 
 def is_concave(vertices, counts, corners):
     """Whether each polygon (as in `triangulate`) turns back at one of its corners, seen along its area
-    vector (Newell's)."""
-    counts = np.asarray(counts, dtype=np.int64)
+    vector (Newell's); a triangle never does."""
+    all_counts = np.asarray(counts, dtype=np.int64)
+    concave = np.zeros(len(all_counts), dtype=bool)
+    polygon = np.flatnonzero(all_counts > 3)
+    if not len(polygon):
+        return concave
+    counts = all_counts[polygon]
+    corners = np.asarray(corners, dtype=np.int64)[spans((np.cumsum(all_counts) - all_counts)[polygon], counts)]
     starts = np.cumsum(counts) - counts
     points = np.asarray(vertices, dtype=np.float64)[corners]
     owner = np.repeat(np.arange(len(counts)), counts)
     position = np.arange(len(corners)) - starts[owner]
     following = np.where(position == counts[owner] - 1, starts[owner], np.arange(len(corners)) + 1)
     preceding = np.where(position == 0, starts[owner] + counts[owner] - 1, np.arange(len(corners)) - 1)
-    normal = np.add.reduceat(np.cross(points, points[following]), starts, axis=0) if len(starts) else points[:0]
+    normal = np.add.reduceat(np.cross(points, points[following]), starts, axis=0)
     inward, outward = points - points[preceding], points[following] - points
     turn = np.einsum("ij,ij->i", np.cross(inward, outward), normal[owner])
     scale = np.linalg.norm(inward, axis=1) * np.linalg.norm(outward, axis=1) * np.linalg.norm(normal[owner], axis=1)
-    back = (turn < -_STRAIGHT * scale) & (counts[owner] > 3)
-    return np.bincount(owner[back], minlength=len(counts)) > 0
+    concave[polygon[np.unique(owner[turn < -_STRAIGHT * scale])]] = True
+    return concave
 
 
 def _clip_concave(vertices, counts, corners, starts, concave, triangles):

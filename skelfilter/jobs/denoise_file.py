@@ -80,7 +80,7 @@ def denoise_file(input_path, output_path, params, volume_params=None, save_skele
     -------
     dict
         ``kind`` of the input, ``voxels_changed`` (voxels added or removed: on the grid a mesh is
-        voxelized on, on a volume's own grid),
+        voxelized on, on a volume's own grid; None where the voxel stage did not run),
         and ``vertices`` and ``faces`` of a mesh output.
     """
     input_path, output_path = str(input_path), str(output_path)
@@ -98,6 +98,8 @@ def denoise_file(input_path, output_path, params, volume_params=None, save_skele
     out, result, grid = mesh_pipeline.denoise_mesh_detailed(mesh, params, progress)
     if out.units is None:  # a new closed mesh is in the input's unit
         out.units = mesh.units
+    if "ply" in mesh.metadata:  # and a PLY output keeps the input's comments, naming what it drops
+        out.metadata.setdefault("ply", mesh.metadata["ply"])
     if save_skeleton and not result.stages:
         raise InputError(f"`save_skeleton`: no skeleton was computed ({progress.notes[-1]}); "
                          "`output_mesh` closed runs the voxel stage")
@@ -106,8 +108,8 @@ def denoise_file(input_path, output_path, params, volume_params=None, save_skele
         _save_skeleton(save_skeleton, result, grid, {input_path: "input", output_path: "output"})
     if preview is not None:
         preview(mesh, out)
-    return {"kind": "mesh", "voxels_changed": result.voxels_changed, "vertices": len(out.vertices),
-            "faces": len(out.faces)}
+    return {"kind": "mesh", "voxels_changed": result.voxels_changed if result.stages else None,
+            "vertices": len(out.vertices), "faces": len(out.faces)}
 
 
 def _denoise_volume_file(input_path, output_path, kind_out, params, volume_params, progress, preview=None):
