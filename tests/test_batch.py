@@ -179,3 +179,72 @@ def test_a_cluster_that_cannot_start_is_one_line(tmp_path):
     assert done.returncode == 2, done.stderr
     assert done.stderr.splitlines() == [done.stderr.strip()] and "too many open files" in done.stderr
     assert not out.exists()
+
+
+def _tree(root):
+    """root/a.ply, root/sub/b.ply, root/sub/deeper/c.stl, and files a folder's reading leaves out."""
+    (root / "sub" / "deeper").mkdir(parents=True)
+    (root / ".cache").mkdir()
+    for path in (root / "a.ply", root / "sub" / "b.ply", root / "sub" / "deeper" / "c.stl",
+                 root / ".cache" / "hidden.ply"):
+        trimesh.creation.box().export(path)
+    (root / "sub" / "notes.txt").write_text("not a mesh")
+
+
+def test_a_folder_is_read_with_its_subfolders_mirrored_under_out(tmp_path):
+    from skelfilter.jobs import batch_files
+
+    _tree(tmp_path / "scans")
+    found = batch_files.expand_inputs([str(tmp_path / "scans")])
+    assert found == [str(tmp_path / "scans" / n) for n in ("a.ply", "sub/b.ply", "sub/deeper/c.stl")]
+    # with a file named beside it: that one under its own name
+    trimesh.creation.box().export(tmp_path / "one.ply")
+    outputs = batch_files.output_paths(batch_files.find_inputs([str(tmp_path / "scans"), str(tmp_path / "one.ply")]),
+                                       str(tmp_path / "out"))
+    assert [os.path.relpath(p, tmp_path / "out") for p in outputs] == ["a.ply", "sub/b.ply", "sub/deeper/c.stl",
+                                                                       "one.ply"]
+
+
+def test_a_double_star_pattern_reaches_every_depth(tmp_path):
+    from skelfilter.jobs import batch_files
+
+    _tree(tmp_path / "scans")
+    found = batch_files.expand_inputs([str(tmp_path / "scans" / "**" / "*.ply")])
+    assert found == [str(tmp_path / "scans" / n) for n in ("a.ply", "sub/b.ply")]
+    found = batch_files.expand_inputs([str(tmp_path / "scans" / "**")])
+    assert found == [str(tmp_path / "scans" / n) for n in ("a.ply", "sub/b.ply", "sub/deeper/c.stl")]
+
+
+def test_an_empty_file_at_the_output_is_not_taken_as_done(tmp_path):
+    trimesh.creation.icosphere(3).export(tmp_path / "a.ply")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "a.ply").write_bytes(b"")  # a copy or a write cut short
+    rows = batch.denoise_many([str(tmp_path / "a.ply")], str(out), workers=1)
+    assert rows[0]["status"] == "ok", rows
+    assert len(mesh_files.load_mesh(out / "a.ply").faces) > 0
+
+
+def test_a_file_gone_before_its_turn_is_one_line(tmp_path):
+    from skelfilter.params import DenoiseParams, VolumeParams
+
+    row = batch._task(str(tmp_path / "gone.ply"), str(tmp_path / "out.ply"), DenoiseParams(), VolumeParams(), 1)
+    assert row["status"] == "failed" and row["error"] == f"{tmp_path / 'gone.ply'}: no longer exists", row
+    assert not row["bad_input"]  # tried again by a rerun, where it is missing from the start
+
+
+def test_the_summary_says_what_was_done_to_each_file(tmp_path):
+    rng = np.random.default_rng(0)
+    sphere = trimesh.creation.icosphere(4)
+    sphere.export(tmp_path / "clean.ply")
+    sphere.vertices = sphere.vertices + rng.normal(0, 0.01, sphere.vertices.shape)
+    sphere.export(tmp_path / "fine.ply")
+    np.save(tmp_path / "ball.npy", (np.indices((40, 40, 40)) - 19.5).__pow__(2).sum(0) < 14**2)
+    rows = {os.path.basename(r["input"]): r for r in batch.denoise_many([str(tmp_path)], str(tmp_path / "out"),
+                                                                        workers=1)}
+    assert "the mesh comes back as it was" in rows["clean.ply"]["done"], rows
+    assert "smoothed by the fine pass" in rows["fine.ply"]["done"], rows
+    assert rows["clean.ply"]["voxels_changed"] == rows["fine.ply"]["voxels_changed"] == ""  # no voxel stage ran
+    assert rows["ball.npy"]["voxels_changed"] != "" and rows["ball.npy"]["done"]
+    written = {os.path.basename(r["input"]): r for r in csv.DictReader(open(tmp_path / "out" / "summary.csv"))}
+    assert written["fine.ply"]["done"] == rows["fine.ply"]["done"]

@@ -109,10 +109,10 @@ def build_parser(full_help=False):
     _add_display_flags(noi)
 
     bat = sub.add_parser("batch", help="denoise many files on Dask (a local cluster, or a scheduler's)")
-    bat.add_argument("inputs", nargs="+", metavar="INPUT", help="files, folders (their mesh, volume and "
-                     "point-cloud files) or glob patterns; each file is one task")
-    bat.add_argument("--out", required=True, metavar="DIR", help="output folder: each result has its input's "
-                     "name, plus summary.csv and summary.json")
+    bat.add_argument("inputs", nargs="+", metavar="INPUT", help="files, folders (subfolders included) or glob "
+                     "patterns (** reaches every depth); each file is one task")
+    bat.add_argument("--out", required=True, metavar="DIR", help="output folder: each result under its input's "
+                     "name (path below a folder given), and summary.csv/.json: what was done to each file")
     bat.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler (tcp://host:8786); "
                      "default: a local cluster")
     bat.add_argument("--workers", type=_count, metavar="N", help="local worker processes (default: one per "

@@ -38,8 +38,14 @@ from skelfilter.runtime.progress import Progress
 from skelfilter.runtime.signals import deferred, temporary_folder
 
 SUMMARY_FILES = ("summary.csv", "summary.json")
-SUMMARY_FIELDS = ("input", "output", "status", "error", "seconds", "peak_memory_mib", "voxels_changed",
+SUMMARY_FIELDS = ("input", "output", "status", "done", "error", "seconds", "peak_memory_mib", "voxels_changed",
                   "bad_input")
+
+
+def _row(input_path, output_path, status, **values):
+    """A summary row: ``values`` over blanks."""
+    return {**dict.fromkeys(SUMMARY_FIELDS, ""), "input": input_path, "output": output_path, "status": status,
+            **values}
 
 
 def _task(input_path, output_path, params, volume_params, numba_threads):
@@ -54,8 +60,8 @@ def _task(input_path, output_path, params, volume_params, numba_threads):
     return_freed_memory()  # a setting of the worker process, which this task runs in
     _reset_peak_memory()
     start = time.perf_counter()
-    row = {"input": input_path, "output": output_path, "status": "ok", "error": "", "voxels_changed": "",
-           "bad_input": ""}
+    row = _row(input_path, output_path, "ok")
+    progress = Progress(enabled=False, shield=True)
     try:
         # --label, --iso and --spacing are for the volumes of a mixed batch, the mesh output's and
         # normal filter's choices for its meshes.
@@ -64,18 +70,27 @@ def _task(input_path, output_path, params, volume_params, numba_threads):
             volume = volume_params
             params = params.with_(output_mesh=DenoiseParams(preset=params.preset).output_mesh,
                                   normal_filter=DenoiseParams().normal_filter)
-        summary = denoise_file.denoise_file(input_path, output_path, params, volume,
-                                     progress=Progress(enabled=False, shield=True))
-        row["voxels_changed"] = summary["voxels_changed"]
-    except InputError as exc:  # the file itself: a rerun leaves it alone while it stays the same
-        row.update(status="failed", error=str(exc), bad_input=_stamp(input_path))
-    except (SkelfilterError, MemoryError) as exc:
-        row.update(status="failed", error=str(exc) if str(exc) else "out of memory")
-    except Exception as exc:  # a bug or a library's failure on one file must not stop the batch
-        row.update(status="failed", error=f"{type(exc).__name__}: {exc}")
+        summary = denoise_file.denoise_file(input_path, output_path, params, volume, progress=progress)
+        changed = summary["voxels_changed"]
+        row.update(voxels_changed="" if changed is None else changed,
+                   done="; ".join(progress.notes + ([] if changed is None else [f"voxel stage: {changed} voxels "
+                                                                                "changed"])))
+    except Exception as exc:  # a bug or a library's failure on one file must not stop the batch either
+        row.update(status="failed", **_failure(exc, input_path))
     row["seconds"] = round(time.perf_counter() - start, 3)
     row["peak_memory_mib"] = _peak_memory_mib()
     return row
+
+
+def _failure(exc, input_path):
+    """The summary's ``error`` and ``bad_input`` of a file whose task raised ``exc``."""
+    if not os.path.exists(input_path):  # removed or renamed since the batch found it
+        return {"error": f"{input_path}: no longer exists", "bad_input": ""}
+    if isinstance(exc, InputError):  # the file itself: a rerun leaves it alone while it stays the same
+        return {"error": str(exc), "bad_input": _stamp(input_path)}
+    if isinstance(exc, (SkelfilterError, MemoryError)):
+        return {"error": str(exc) or "out of memory", "bad_input": ""}
+    return {"error": f"{type(exc).__name__}: {exc}", "bad_input": ""}
 
 
 def _reset_peak_memory():
@@ -170,9 +185,10 @@ def denoise_many(paths, out_dir, client=None, workers=None, force=False, to=None
     Parameters
     ----------
     paths : list of str
-        Files, folders or glob patterns (`batch_files.expand_inputs`).
+        Files, folders (subfolders included) or glob patterns (`batch_files.find_inputs`).
     out_dir : str
-        Created if missing; each output has its input's name (suffix ``to`` if given).
+        Created if missing; each output has its input's name (suffix ``to`` if given), a folder's
+        files their path below it (its subfolders mirrored).
     keep_tree : bool
         Put each output in the subfolder of ``out_dir`` that mirrors its input's folder below the
         folder all inputs share (created as needed), so that files of one name in several folders
@@ -182,7 +198,7 @@ def denoise_many(paths, out_dir, client=None, workers=None, force=False, to=None
         at the end.
     force : bool
         Redo files whose output exists (by default they are skipped: outputs are written
-        atomically, so one that exists is complete), and files the last run found unusable and
+        atomically, so one that exists is complete; an empty one is redone), and files the last run found unusable and
         that have not changed since (by default their failure is carried over).
     report : callable, optional
         Called with each finished row and the counts so far (the CLI's progress bar).
@@ -193,15 +209,18 @@ def denoise_many(paths, out_dir, client=None, workers=None, force=False, to=None
     -------
     list of dict
         One row per input, in input order: ``SUMMARY_FIELDS``; ``status`` is ``ok``, ``skipped`` or
-        ``failed`` (with the error's one line).
+        ``failed`` (with the error's one line); ``done`` says what was done to the file (the routing's
+        notes: as it was, smoothed by the fine pass, the voxel stage's voxels changed);
+        ``voxels_changed`` is blank where the voxel stage did not run.
     """
     volume_names = {f.name for f in fields(VolumeParams)}
     volume_params = VolumeParams(**{k: v for k, v in params.items() if k in volume_names})
     denoise_params = build(DenoiseParams, None, **{k: v for k, v in params.items() if k not in volume_names})
     if os.path.exists(out_dir) and not os.path.isdir(out_dir):
         raise InputError(f"{out_dir}: exists and is not a folder")
-    inputs = batch_files.expand_inputs(paths)
-    outputs = batch_files.output_paths(inputs, out_dir, to, keep_tree)
+    found = batch_files.find_inputs(paths)
+    inputs = [path for path, _ in found]
+    outputs = batch_files.output_paths(found, out_dir, to, keep_tree)
     created = batch_files.make_folders([out_dir, *(os.path.dirname(out) for out in outputs)])
     try:
         batch_files.check_outputs(inputs, outputs)
@@ -216,11 +235,11 @@ def denoise_many(paths, out_dir, client=None, workers=None, force=False, to=None
     for path, out in zip(inputs, outputs):
         if force:
             todo.append((path, out))
-        elif os.path.exists(out):
-            rows[path] = {"input": path, "output": out, "status": "skipped", "error": "", "seconds": 0.0,
-                          "peak_memory_mib": "", "voxels_changed": "", "bad_input": ""}
+        elif _done(out):
+            rows[path] = _row(path, out, "skipped", done="its output is there", seconds=0.0)
         elif path in before and before[path]["bad_input"] == _stamp(path):
-            rows[path] = {**before[path], "seconds": 0.0, "peak_memory_mib": "", "voxels_changed": ""}
+            rows[path] = {**_row(path, out, "failed"), **before[path], "seconds": 0.0, "peak_memory_mib": "",
+                          "voxels_changed": ""}
         else:
             todo.append((path, out))
     try:
@@ -232,6 +251,12 @@ def denoise_many(paths, out_dir, client=None, workers=None, force=False, to=None
     ordered = [rows[path] for path in inputs]
     _write_summary(out_dir, ordered)
     return ordered
+
+
+def _done(output_path):
+    """Whether an output is there (written atomically, a file that is there is complete; an empty one
+    is a copy or a write by something else cut short)."""
+    return os.path.isfile(output_path) and os.path.getsize(output_path) > 0
 
 
 def _stamp(path):
@@ -319,8 +344,7 @@ def _collect(client, todo, threads, params, volume_params, report, skipped):
         try:
             row = future.result()
         except Exception as exc:  # the worker died twice (KilledWorker) or the task could not run
-            row = {"input": path, "output": out, "status": "failed", "seconds": "", "peak_memory_mib": "",
-                   "voxels_changed": "", "error": _worker_error(exc), "bad_input": ""}
+            row = _row(path, out, "failed", error=_worker_error(exc))
         rows[path] = row
         counts["done"] += 1
         counts["failed"] += row["status"] == "failed"
@@ -372,7 +396,8 @@ def progress_bar(stream=None, width=30):
         if terminal:
             stream.write("\r" + line[:200].ljust(120) + ("\n" if done == total else ""))
         else:
-            stream.write(line + (f" ({row['error']})" if row["error"] else "") + "\n")
+            detail = row["error"] or row.get("done")  # why it failed, or what was done to it
+            stream.write(line + (f" ({detail})" if detail else "") + "\n")
         stream.flush()
 
     return report

@@ -1,5 +1,6 @@
-"""Which files a batch reads and where it writes: inputs from files, folders and patterns, one output
-per input (beside the others, or mirroring their folders), checked before anything runs."""
+"""Which files a batch reads and where it writes: inputs from files, folders (subfolders included) and
+patterns, one output per input (a folder's files mirroring its subfolders, or every input mirroring
+its folder), checked before anything runs."""
 
 import glob
 import os
@@ -10,8 +11,15 @@ from skelfilter.jobs import denoise_file
 
 
 def expand_inputs(inputs):
-    """Files, folders and glob patterns (their supported files that are not hidden; folders are not
-    recursed), as a list of unique paths.
+    """Files, folders and glob patterns as a list of unique paths (see `find_inputs`)."""
+    return [path for path, _ in find_inputs(inputs)]
+
+
+def find_inputs(inputs):
+    """Files, folders and glob patterns, as unique ``(path, name)`` pairs: a folder gives its supported
+    files that are not hidden, its subfolders' included (hidden folders left out, links to folders not
+    followed), each named by its path below the folder; a pattern (``**`` reaches every depth) and a
+    file give the files themselves, each named by its file name.
 
     Raises
     ------
@@ -22,21 +30,31 @@ def expand_inputs(inputs):
     for item in inputs:
         item = str(item)
         if os.path.isdir(item):
-            found += [os.path.join(item, name) for name in sorted(os.listdir(item))
-                      if os.path.isfile(os.path.join(item, name)) and _supported(name)]
+            found += sorted(((path, os.path.relpath(path, item)) for path in _folder_files(item)),
+                            key=lambda pair: pair[1])
         elif os.path.isfile(item):
-            found.append(item)
+            found.append((item, os.path.basename(item)))
         elif glob.has_magic(item):
-            matches = [p for p in sorted(glob.glob(item)) if os.path.isfile(p) and _supported(p)]
+            matches = [p for p in sorted(glob.glob(item, recursive=True)) if os.path.isfile(p) and _supported(p)]
             if not matches:
                 raise InputError(f"{item}: the pattern matches no file")
-            found += matches
+            found += [(p, os.path.basename(p)) for p in matches]
         else:
             raise InputError(f"{item}: no such file or folder")
-    unique = list(dict.fromkeys(os.path.abspath(p) for p in found))
+    unique = {}
+    for path, name in found:
+        unique.setdefault(os.path.abspath(path), name)
     if not unique:
         raise InputError("no input file of a supported kind")
-    return unique
+    return list(unique.items())
+
+
+def _folder_files(folder):
+    """The supported files of ``folder`` and of its subfolders that are not hidden."""
+    for parent, folders, names in os.walk(folder):
+        folders[:] = [name for name in folders if not name.startswith(".")]
+        yield from (os.path.join(parent, name) for name in names
+                    if os.path.isfile(os.path.join(parent, name)) and _supported(name))
 
 
 def _supported(name):
@@ -51,18 +69,24 @@ def _supported(name):
 
 
 def output_paths(inputs, out_dir, to=None, keep_tree=False):
-    """Where each input's result goes: ``out_dir`` / its name (with the suffix ``to`` if given); with
-    ``keep_tree``, ``out_dir`` / its path below the folder all inputs share.
+    """Where each input's result goes: ``out_dir`` / its name (`find_inputs`; with the suffix ``to``
+    if given); with ``keep_tree``, ``out_dir`` / its path below the folder all inputs share.
+
+    Parameters
+    ----------
+    inputs : list of (str, str)
+        Each input's path and name, from `find_inputs`.
 
     Raises
     ------
     InputError
         Two inputs that would write the same output.
     """
-    root = os.path.commonpath([os.path.dirname(p) for p in inputs]) if keep_tree else None
+    root = os.path.commonpath([os.path.dirname(p) for p, _ in inputs]) if keep_tree else None
     outputs, seen = [], {}
-    for path in inputs:
-        name = os.path.relpath(path, root) if keep_tree else os.path.basename(path)
+    for path, name in inputs:
+        if keep_tree:
+            name = os.path.relpath(path, root)
         if to:
             name = name[: -len(output_files.file_suffix(name))] + "." + to.lstrip(".")
         out = os.path.abspath(os.path.join(out_dir, name))
