@@ -6,11 +6,10 @@ PIP ?= $(PYTHON) -m pip
 
 .PHONY: setup setup-demo demo test lint bench docs
 
-# System libraries the wheels need: libusb-1.0-0 (open3d links against it; the demo needs only this
-# one), libosmesa6 (pyvista/VTK draw the comparison's pictures off-screen on the CPU) and chromium (the
-# test that opens the report in a browser).
-DEMO_SYSTEM_PACKAGES = libusb-1.0-0
-SYSTEM_PACKAGES = $(DEMO_SYSTEM_PACKAGES) libosmesa6 chromium
+# System libraries the extras' wheels need: libusb-1.0-0 (open3d, the point clouds' extra, links against
+# it), libosmesa6 (pyvista/VTK draw the comparison's pictures off-screen on the CPU) and chromium (the
+# test that opens the report in a browser). The core install, and so the demo, needs none.
+SYSTEM_PACKAGES = libusb-1.0-0 libosmesa6 chromium
 
 # $(call system_packages,LIST): apt-get install those of LIST that are missing.
 define system_packages
@@ -28,7 +27,6 @@ setup:
 	$(PYTHON) -m skelfilter.cli.warm_up
 
 setup-demo:
-	$(call system_packages,$(DEMO_SYSTEM_PACKAGES))
 	$(PIP) install -q -e .
 	$(PYTHON) -m skelfilter.cli.warm_up
 

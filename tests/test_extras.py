@@ -14,7 +14,7 @@ ROOT = os.path.join(os.path.dirname(__file__), "..")
 # The module each optional distribution installs.
 MODULE_OF = {"pymeshlab": "pymeshlab", "nibabel": "nibabel", "pynrrd": "nrrd", "tifffile": "tifffile",
              "dask[distributed]": "dask", "meshlib": "meshlib", "pygel3d": "pygel3d", "pyvista": "pyvista",
-             "Pillow": "PIL", "manifold3d": "manifold3d"}
+             "Pillow": "PIL", "manifold3d": "manifold3d", "open3d": "open3d"}
 
 
 def _extras():
@@ -72,6 +72,7 @@ def test_a_broken_install_is_not_taken_for_a_missing_extra(monkeypatch):
     (["denoise", "IN.npy", "OUT.nii.gz"], ["nibabel"], "volumes"),
     (["compare", "--out", "OUT"], ["meshlib", "meshlib.mrmeshpy"], "compare"),
     (["batch", "IN.ply", "--out", "OUT"], ["distributed"], "batch"),
+    (["denoise", "IN.xyz", "OUT.ply"], ["open3d"], "clouds"),
 ])
 def test_the_cli_refuses_a_missing_extra_in_one_line(tmp_path, argv, blocked, extra):
     import numpy as np
@@ -81,6 +82,7 @@ def test_the_cli_refuses_a_missing_extra_in_one_line(tmp_path, argv, blocked, ex
     volume = np.zeros((24, 24, 24), dtype=bool)
     volume[4:20, 4:20, 4:20] = True
     np.save(tmp_path / "IN.npy", volume)
+    np.savetxt(tmp_path / "IN.xyz", np.random.default_rng(0).normal(size=(500, 3)))
     code = (f"import sys\nfor m in {blocked!r}: sys.modules[m] = None\n"
             f"from skelfilter.cli import main\nsys.argv = ['skelfilter', *{argv!r}]\nsys.exit(main())\n")
     r = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=300)
@@ -88,7 +90,28 @@ def test_the_cli_refuses_a_missing_extra_in_one_line(tmp_path, argv, blocked, ex
     assert r.returncode == 2 and len(lines) == 1, r.stderr
     assert f"pip install 'skelfilter[{extra}]'" in lines[0]
     assert r.stderr.strip().splitlines()[-1] == lines[0]
-    assert sorted(os.listdir(tmp_path)) == ["IN.npy", "IN.ply"]
+    assert sorted(os.listdir(tmp_path)) == ["IN.npy", "IN.ply", "IN.xyz"]
+
+
+@pytest.mark.parametrize("argv", [["denoise", "IN.ply", "OUT.ply", "--close", "--resolution", "48"],
+                                  ["denoise", "NOISY.ply", "OUT.ply"], ["denoise", "IN.npy", "OUT.npy"]])
+def test_meshes_and_volumes_need_no_extra(tmp_path, argv):
+    """The core install (no open3d: it comes with the point clouds' extra) denoises meshes and volumes."""
+    import numpy as np
+    import trimesh
+
+    trimesh.creation.box().export(tmp_path / "IN.ply")
+    sphere = trimesh.creation.icosphere(4)
+    sphere.vertices += np.random.default_rng(0).normal(0, 0.01, sphere.vertices.shape)
+    sphere.export(tmp_path / "NOISY.ply")
+    volume = np.zeros((24, 24, 24), dtype=bool)
+    volume[4:20, 4:20, 4:20] = True
+    np.save(tmp_path / "IN.npy", volume)
+    code = ("import sys\nsys.modules['open3d'] = None\n"
+            f"from skelfilter.cli import main\nsys.argv = ['skelfilter', *{argv!r}, '--quiet']\nsys.exit(main())\n")
+    r = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0 and r.stderr == "", r.stderr
+    assert (tmp_path / argv[2]).exists()
 
 
 def test_library_messages_name_parameters_and_the_cli_its_flags():

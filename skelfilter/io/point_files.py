@@ -16,7 +16,7 @@ from skelfilter.io.formats import TEXT_POINT_COLUMNS, suffix
 from skelfilter.io.input_files import check_input_file
 from skelfilter.io.output_files import atomic_write
 from skelfilter.runtime import native_output
-from skelfilter.runtime.extras import load
+from skelfilter.runtime.extras import need
 
 MIN_POINTS = 1000
 
@@ -29,7 +29,7 @@ def load_points(path):
     InputError
         Unreadable, fewer than `MIN_POINTS` points, non-finite coordinates.
     """
-    o3d = load("open3d")  # loaded where used: it needs the system's libusb
+    o3d = need("open3d", "point clouds")  # loaded where used: it needs the system's libusb
 
     path = str(path)
     check_input_file(path, "point cloud")
@@ -59,7 +59,7 @@ def load_points(path):
 def _read_text_cloud(path, columns):
     """An XYZ (``columns`` 3) or XYZN (6: positions, then normals) file as open3d's reader gives it:
     single-precision positions (and normals); further columns are ignored."""
-    o3d = load("open3d")
+    o3d = need("open3d", "point clouds")
 
     try:
         with warnings.catch_warnings():
@@ -139,7 +139,7 @@ def _check_pts_whole(path):
 
 def save_points(cloud, path, protect=()):
     """Write a cloud (its format from the suffix), atomically."""
-    o3d = load("open3d")
+    o3d = need("open3d", "point clouds")
 
     def write(tmp):
         if not o3d.t.io.write_point_cloud(tmp, cloud):

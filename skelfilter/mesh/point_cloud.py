@@ -20,7 +20,7 @@ from skelfilter.errors import InputError
 from skelfilter.io.point_files import MIN_POINTS
 from skelfilter.mesh.closest_points import MeshSurface
 from skelfilter.runtime import native_output
-from skelfilter.runtime.extras import load
+from skelfilter.runtime.extras import need
 
 FLAT_RATIO = 1e-6  # relative spread across below which a cloud is a line or a plane
 MAX_EXTENT = 1e150  # squared distances stay finite
@@ -62,7 +62,7 @@ def points_to_mesh(cloud, name="the point cloud"):
     InputError
         Too sparse a cloud, or no consistent inside (the surface is not closed or encloses nothing).
     """
-    o3d = load("open3d")
+    o3d = need("open3d", "point clouds")
 
     points = cloud.point.positions.numpy().astype(np.float64)
     legacy = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
@@ -119,7 +119,7 @@ def _encloses_nothing(mesh, size):
 
 def move_points(cloud, mesh):
     """A copy of ``cloud`` with every point moved to the closest point of ``mesh``, attributes kept."""
-    o3d = load("open3d")
+    o3d = need("open3d", "point clouds")
 
     points = cloud.point.positions.numpy()
     closest = MeshSurface(mesh).closest_points(points)

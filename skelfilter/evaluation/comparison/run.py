@@ -33,7 +33,7 @@ from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.mesh import voxelize
 from skelfilter.mesh.closest_points import MeshSurface
 from skelfilter.params import DenoiseParams
-from skelfilter.runtime.extras import load
+from skelfilter.runtime.extras import need
 from skelfilter.runtime.progress import Progress
 from skelfilter.runtime.signals import deferred
 
@@ -65,7 +65,7 @@ def decimate(mesh, max_faces):
     """Quadric edge collapse (open3d) to at most ``max_faces`` faces, unreferenced vertices dropped."""
     if max_faces == 0 or len(mesh.faces) <= max_faces:
         return mesh
-    o3d = load("open3d")
+    o3d = need("open3d", "the comparison's decimation")
     o3 = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(mesh.vertices),
                                    o3d.utility.Vector3iVector(mesh.faces))
     o3 = o3.simplify_quadric_decimation(int(max_faces))
