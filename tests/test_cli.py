@@ -152,8 +152,9 @@ def test_help_shows_the_common_flags_in_plain_words_and_help_all_every_parameter
     full = run_cli(command, "--help-all")
     assert full.returncode == 0
     assert "--threshold" in full.stdout and "eq. 5.6" in full.stdout and "advanced parameters" in full.stdout
+    assert "--stages" in short  # the README's flags are in the short help
     if command == "denoise":
-        assert "--save-skeleton" in full.stdout and "--save-skeleton" not in short
+        assert "--save-skeleton" in short and "--save-skeleton" in full.stdout
 
 
 def test_hidden_flags_still_take_effect(cube_file, tmp_path):
@@ -197,3 +198,17 @@ def test_preview_of_a_volume(tmp_path):
     r = run_cli("denoise", src, out, "--preview", picture)
     assert r.returncode == 0, r.stderr
     assert out.exists() and picture.stat().st_size > 1000
+
+
+def test_the_folded_faces_note_says_what_they_are_and_what_to_do(tmp_path):
+    from skelfilter.mesh import pipeline as mesh_pipeline
+
+    # a cube with tall bumps, its own mesh kept: where bumps tunnelled, faces stay turned over
+    noisy = mesh_pipeline.noisy_mesh(trimesh.creation.box(extents=(1, 1, 1)), resolution=64, p=0.004, l=1, h=4,
+                                     seed=3)[0]
+    noisy.export(tmp_path / "bumpy.ply")
+    r = run_cli("denoise", tmp_path / "bumpy.ply", tmp_path / "out.ply", "--resolution", "64", "--output-mesh",
+                "input", "--noise-height", "7")
+    assert r.returncode == 0, r.stderr
+    note = next(line for line in r.stderr.splitlines() if " folded (" in line)
+    assert "noise" in note and "--output-mesh closed" in note, note

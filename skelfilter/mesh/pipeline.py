@@ -271,7 +271,8 @@ def _kept_vertices(mesh, voxels, params, grid, progress, roughness=None):
             vertices, folded = vertex_projection.unfold(smoothed, faces, reference)
         if folded:
             progress.note(f"{folded} {'face stays' if folded == 1 else 'faces stay'} folded (turned against the "
-                          "surface or without area)")
+                          "surface or without area, where noise folded the surface over itself; they may show as "
+                          "dark specks): --output-mesh closed makes a new closed mesh from the voxels instead")
     return vertices[inverse]
 
 
