@@ -72,7 +72,7 @@ def _add_filter_flags(parser, description, full_help=True):
         )
     if short:
         parser.add_argument("--help-all", action="store_true",
-                            help="show this help with every parameter, in the thesis' terms, and exit")
+                            help="show every parameter, in the thesis' terms, and exit")
 
 
 def build_parser(full_help=False):
@@ -90,13 +90,11 @@ def build_parser(full_help=False):
     den.add_argument("output", help="output mesh, or for a volume input a volume (the input's grid, header "
                      "and affine) or a mesh in the scanner's world coordinates; written atomically")
     _add_filter_flags(den, SKELETON_SALIENCY_DENOISE, full_help)
-    den.add_argument("--close", action="store_true", help="write a new watertight mesh of the denoised "
-                     "solid (marching cubes), the same as --output-mesh closed")
-    den.add_argument("--points", action="store_true", help="for a point cloud input: write its points moved "
-                     "onto the denoised surface, with their attributes (PLY, PCD, XYZ), not the mesh")
-    den.add_argument("--save-skeleton", metavar="FILE", help=argparse.SUPPRESS if not full_help else
-                     "write the skeleton voxels as a PLY point cloud with per-point D, rho, sigma_bar, "
-                     "rho_plus (quality = rho_plus)")
+    den.add_argument("--close", action="store_true", help="a new watertight mesh: --output-mesh closed")
+    den.add_argument("--points", action="store_true", help="for a point cloud: write its points moved onto the "
+                     "surface, attributes kept (PLY, PCD, XYZ)")
+    den.add_argument("--save-skeleton", metavar="FILE", help="also write the skeleton as a PLY point cloud "
+                     "with D, rho, sigma_bar, rho_plus per point")
     den.add_argument("--preview", metavar="PNG", help="also write a picture of the input and the output side "
                      "by side (a PNG; matplotlib draws every face, so a mesh of millions takes a while)")
     _add_volume_flags(den)
@@ -111,16 +109,16 @@ def build_parser(full_help=False):
     bat = sub.add_parser("batch", help="denoise many files on Dask (a local cluster, or a scheduler's)")
     bat.add_argument("inputs", nargs="+", metavar="INPUT", help="files, folders (subfolders included) or glob "
                      "patterns (** reaches every depth); each file is one task")
-    bat.add_argument("--out", required=True, metavar="DIR", help="output folder: each result under its input's "
-                     "name (path below a folder given), and summary.csv/.json: what was done to each file")
+    bat.add_argument("--out", required=True, metavar="DIR", help="output folder: the results, and "
+                     "summary.csv/.json saying what was done to each file")
     bat.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler (tcp://host:8786); "
                      "default: a local cluster")
     bat.add_argument("--workers", type=_count, metavar="N", help="local worker processes (default: one per "
                      "core); numba's threads share the rest of the cores")
     bat.add_argument("--to", metavar="EXT", help="output format, e.g. ply for meshes of volumes (default: "
                      "the input's)")
-    bat.add_argument("--keep-tree", action="store_true", help="mirror the inputs' folders under --out (below "
-                     "the folder they all share), so that scans/*/noisy.obj gives out/<each folder>/noisy.obj")
+    bat.add_argument("--keep-tree", action="store_true", help="mirror the inputs' folders under --out: "
+                     "scans/*/noisy.obj gives out/<each folder>/noisy.obj")
     bat.add_argument("--force", action="store_true", help="redo files whose output exists (default: skip "
                      "them; outputs are written atomically, so one that exists is complete)")
     _add_filter_flags(bat, SKELETON_SALIENCY_DENOISE, full_help)

@@ -199,6 +199,7 @@ class DenoiseParams:
         "which stages run: foreground removes bumps, background removes dents (§3.1.1); "
         "'preset': the preset's (default: foreground; thesis: both)",
         choices=("preset", "both", "foreground", "background"),
+        summary="remove bumps ('foreground', default), dents or both",
     )
     unchanged_surface: str = _p(
         "preset",
