@@ -51,7 +51,7 @@ CASES = [
     (["run-script", "{script}", "{in}", "{out}", "--timeout", "nan"], "must be a number of seconds"),
     (["run-script", "{script}", "{in}", "{out}", "--timeout", "0"], "must be a number of seconds"),
     (["run-script", "{script}", "{in}", "{out}", "--timeout", "-1"], "must be a number of seconds"),
-    (["compare", "{dir}", "--out", "{dir}/report"], "no such configuration file"),
+    (["compare", "{dir}", "--out", "{dir}/report"], "no input file of a supported kind"),
     (["compare", "--out", "{file}"], "exists and is not a folder"),
     (["frobnicate"], "invalid choice"),
     # malformed or unusable input files
