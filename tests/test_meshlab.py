@@ -144,3 +144,18 @@ def test_oversized_script_is_refused(tmp_path, noisy_box):
         read_filter_script(path)
     with pytest.raises(InputError, match="1 MiB"):
         run_filter_script(noisy_box, path)
+
+
+def test_the_denoise_description_says_what_the_default_does():
+    from skelfilter.meshlab.descriptions import SKELETON_SALIENCY_DENOISE as denoise
+    from skelfilter.params import DenoiseParams
+
+    # a clean open bowl: the default gives back the user's own mesh, open as it was, not a new
+    # watertight one
+    sphere = trimesh.creation.icosphere(4)
+    bowl = sphere.submesh([np.flatnonzero(sphere.triangles_center[:, 2] < 0.3)], append=True)
+    out = denoise.apply(bowl, DenoiseParams())
+    assert np.array_equal(out.faces, bowl.faces) and not out.is_watertight
+    assert "watertight layer" not in denoise.description
+    assert "comes back as it was" in denoise.description and "fine pass" in denoise.description
+    assert "new closed mesh" in denoise.description  # what the voxel stage gives

@@ -168,10 +168,14 @@ SKELETON_SALIENCY_DENOISE = FilterDescription(
     command="denoise",
     layer="skeleton denoised",
     description=(
-        "Removes small bumps and dents from a mesh while keeping its sharp edges and corners, by "
-        "pruning its surface skeleton (thesis §8.1.1): the mesh is voxelized, skeleton voxels whose "
-        "streamline importance rho+ is below t are pruned on the shape (bumps) and on its background "
-        "(dents), and the reconstruction is meshed by marching cubes into a new, watertight layer."
+        "Removes small bumps (and dents, with stages both) from a mesh while keeping its sharp edges and "
+        "corners, by pruning its surface skeleton (thesis §8.1.1); the result is added as a new layer. "
+        "By default (output mesh 'auto') it is the input mesh itself: a clean one comes back as it was, "
+        "one with noise finer than the skeleton's scale has its vertices moved by the fine pass (the same "
+        "faces, colours and UVs, an open surface stays open); a solid covered in noise at the skeleton's "
+        "scale goes through the voxel stage: it is voxelized, skeleton voxels whose streamline importance "
+        "rho+ is below t are pruned on the shape (bumps) and on its background (dents), and the "
+        "reconstruction becomes a new closed mesh (what output mesh 'closed' always gives)."
     ),
     params_class=DenoiseParams,
     apply=_denoise,
