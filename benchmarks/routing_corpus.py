@@ -5,7 +5,9 @@ Every case is a noisy (or clean) mesh with its clean truth and the treatment it 
 - ``none``: a clean mesh; it must come back as it was. The benchmark's shapes, the shared meshes,
   the literature's and the published clean meshes, coarse low-poly meshes (an icosphere, prisms, a
   torus, decimated animals and a bone), CAD parts exported as STL (every triangle's corners stored
-  apart) and clean depth scans.
+  apart) and clean depth scans; low-poly insects modelled of primitives (tuning); and the real models
+  bundled with the installed packages (`REAL_MODELS`: PyVista's and MeshLab's examples, low-poly
+  characters, CAD, scans), all held aside: what users bring.
 - ``fine``: noise below the skeleton's scale, to be smoothed on the mesh itself: Gaussian vertex noise
   (the literature's pairs, the published pairs, our own on other shapes) as OBJ, as STL and
   decimated; depth-camera scans (low-frequency waves, quantized depth, flare: `depth_scan`) and the
@@ -18,6 +20,7 @@ reported apart and never looked at while choosing. Meshes are cached under ``ben
 """
 
 import functools
+import importlib.util
 import os
 import tempfile
 from dataclasses import dataclass
@@ -39,6 +42,17 @@ CACHE = os.path.join(ROOT, "benchmark-cache", "routing")
 TUNING = ("fandisk", "cube", "block", "bunny", "airplane", "quadruped", "mug", "u-channel", "pocket-plate")
 HELD_ASIDE = ("rocker-arm", "spot", "twelve", "l-bracket", "fin-plate", "chair", "stool", "gear")
 NEEDS = ("none", "fine", "skeleton")
+# Real clean models bundled with the installed packages: (package, path in it); a case whose package is
+# not installed is left out.
+REAL_MODELS = (("pyvista", "examples/ant.ply"), ("pyvista", "examples/airplane.ply"), ("pyvista", "examples/nut.ply"),
+               ("pyvista", "examples/sphere.ply"), ("pyvista", "examples/globe.vtk"),
+               ("pyvista", "examples/hexbeam.vtk"),
+               ("pymeshlab", "tests/sample_meshes/cow.obj"), ("pymeshlab", "tests/sample_meshes/cube.obj"),
+               ("pymeshlab", "tests/sample_meshes/airplane.obj"),
+               ("pymeshlab", "tests/sample_meshes/colored_airplane.ply"),
+               ("pymeshlab", "tests/sample_meshes/bunny10k_textured.obj"),
+               ("pymeshlab", "tests/sample_meshes/bunny.obj"), ("pymeshlab", "tests/sample_meshes/bone.ply"),
+               ("pymeshlab", "tests/sample_meshes/rangemaps/face000.ply"))
 
 
 @dataclass(frozen=True)
@@ -143,6 +157,46 @@ def _bone(segments):
     return shapes._to_trimesh(manifold3d.Manifold.batch_boolean([shaft] + knobs, manifold3d.OpType.Add))
 
 
+def _insect(segments):
+    """A low-poly insect modelled of primitives: three body segments (ellipsoids, ``segments`` around),
+    six bent legs and two antennae (six-sided cylinders)."""
+    import manifold3d
+
+    parts = [manifold3d.Manifold.sphere(1.0, segments).scale(size).translate(centre)
+             for size, centre in (((0.35, 0.25, 0.22), (-0.55, 0, 0)), ((0.25, 0.18, 0.16), (0, 0, 0)),
+                                  ((0.2, 0.17, 0.15), (0.4, 0, 0.05)))]
+
+    def limb(start, end, radius):
+        start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
+        length = float(np.linalg.norm(end - start))
+        axis = (end - start) / length
+        tilt, turn = np.degrees(np.arccos(axis[2])), np.degrees(np.arctan2(axis[1], axis[0]))
+        return (manifold3d.Manifold.cylinder(length, radius, radius, 6).rotate((0, tilt, 0)).rotate((0, 0, turn))
+                .translate(tuple(start)))
+
+    for x in (-0.15, 0.0, 0.15):
+        for side in (-1, 1):
+            knee = (1.6 * x, 0.45 * side, 0.15)
+            parts += [limb((x, 0, 0), knee, 0.03), limb(knee, (2.2 * x, 0.7 * side, -0.35), 0.025)]
+    parts += [limb((0.5, 0.05 * side, 0.12), (0.8, 0.3 * side, 0.4), 0.015) for side in (-1, 1)]
+    return shapes._to_trimesh(manifold3d.Manifold.batch_boolean(parts, manifold3d.OpType.Add))
+
+
+def _real(path):
+    """A maker of ``(model, model)`` from a mesh file: VTK files through PyVista, the others as skelfilter
+    reads them."""
+    def make():
+        if path.endswith(".vtk"):
+            import pyvista
+
+            surface = pyvista.read(path).extract_surface().triangulate()
+            mesh = trimesh.Trimesh(surface.points, surface.faces.reshape(-1, 4)[:, 1:], process=False)
+        else:
+            mesh = mesh_files.load_mesh(path)
+        return mesh, mesh
+    return make
+
+
 def _then(make, transform):
     """A maker of ``(transform(input), clean)`` from a maker of ``(input, clean)``."""
     def made():
@@ -195,6 +249,14 @@ def _cases():
     }
     for name, (build, split) in coarse.items():
         add(Case(name, "coarse", "none", split, lambda b=build: (b(), b())))
+    for segments in (8, 12):
+        add(Case(f"insect-{segments}", "low-poly", "none", "tuning", lambda s=segments: (_insect(s),) * 2))
+    for package, path in REAL_MODELS:
+        spec = importlib.util.find_spec(package)
+        file = os.path.join(os.path.dirname(spec.origin), path) if spec is not None else ""
+        if os.path.isfile(file):
+            add(Case(f"{package}-{os.path.basename(file)}", "real", "none", "held-aside", _real(file),
+                     storage=file.rsplit(".", 1)[1]))
     for name in ("fandisk", "bunny", "spot", "rocker-arm"):
         add(Case(f"{name}-depth-truth", "clean-scan", "none", _split(name),
                  lambda n=name: (depth_scan(shapes.load(n), seed=2)[1],) * 2))

@@ -74,6 +74,19 @@ def test_a_clean_coarse_mesh_and_its_stl_come_back_as_they_were(tmp_path):
         assert any("comes back as it was" in n for n in progress.notes)
 
 
+def test_a_low_poly_model_and_its_stl_read_clean_though_its_faces_turn_like_noise(tmp_path):
+    # PyVista's ant: six-sided legs, 7.9° of fine roughness (noise from 5°), its vertices leaning with
+    # the shape (Moran's I 0.68); the same on its STL, whose triangles keep their corners apart
+    ant = mesh_files.load_mesh(os.path.join(ROOT, "tests", "data", "ant.ply"))
+    for given in (ant, _as_stl(ant, tmp_path)):
+        roughness = output_choice.measure(given)
+        assert roughness.fine >= output_choice.CLEAN_ROUGHNESS and roughness.correlation > 0.6
+        assert not roughness.noisy and "its faces turning with the shape" in roughness.describe()
+    # vertex noise on a dense mesh pushes neighbours apart: noisy still
+    noisy = output_choice.measure(_noisy(trimesh.creation.icosphere(5), 0.2))
+    assert noisy.noisy and noisy.correlation < output_choice.SHAPE_CORRELATION
+
+
 def test_fine_pass_on_smooths_a_clean_mesh_and_off_leaves_a_noisy_one():
     clean = trimesh.creation.icosphere(3)
     out = mesh_pipeline.denoise_mesh(clean, fine_pass="on")

@@ -5,6 +5,11 @@ which depends neither on how the file stores the vertices nor on the tessellatio
 
 - under `CLEAN_ROUGHNESS` degrees the mesh is clean and comes back as it was, before anything is
   voxelized (clean meshes of every kind measure 0-4.2°, the noisy ones from 6.2°);
+- rougher, but its faces turn with the shape: a low-poly model (an ant's six-sided legs, a modelled cow)
+  turns its normals at every face as noise does, yet its vertices lean like their neighbours (the
+  shape's curvature) where vertex noise and a depth camera's push them apart. Where the neighbours'
+  offsets correlate from `SHAPE_CORRELATION` (`normal_filtering.noise_correlation`) and the roughness
+  is not at the skeleton's scale, the mesh is clean too;
 - noisy, with a `coarse_roughness` under `SKELETON_ROUGHNESS` degrees: the noise is below the
   skeleton's scale (vertex noise, a depth camera's, spikes), and the fine pass smooths the input mesh;
 - noisy at a coarser scale too, and a solid: the voxel stage measures the noise at the skeleton's
@@ -45,6 +50,15 @@ SAMPLE = 50_000
 # routing corpus measure at most 4.2 (a finely tessellated scan, the Stanford bunny), noisy ones from
 # 6.2 (a depth camera's scan of fandisk).
 CLEAN_ROUGHNESS = 5.0
+# Moran's I of the vertices' offsets from their neighbours (`normal_filtering.noise_correlation`) from
+# which a mesh rougher than `CLEAN_ROUGHNESS` at the fine scale only is a clean model whose faces turn
+# with its shape. On the routing corpus (tuning split) the noisy meshes under `SKELETON_ROUGHNESS`
+# measure -0.15 to 0.08 (vertex noise and spikes below 0, a depth camera's waves and terraces 0.01-0.08)
+# and the low-poly insects 0.34-0.39; bumps at the skeleton's scale lift whole patches alike (0.15-0.36)
+# and are told by their coarse roughness instead. Gaussian noise of 0.2 mean edge lengths on a low-poly
+# mesh whose faces turn as sharply as its noise turns them (an insect's six-sided legs) still reads
+# 0.3: such light noise on such a mesh is left, rather than a clean low-poly model smoothed.
+SHAPE_CORRELATION = 0.2
 # Degrees of `surface_roughness.coarse_roughness` from which the noise may stand at the skeleton's
 # scale: the thesis' bumps measure 15.9-24.3 on every kind of mesh (marching cubes, decimated,
 # remeshed), vertex noise, depth scans and spikes 1.5-12.7 (fandisk at 0.7 edge lengths; 32 on meshes
@@ -76,10 +90,16 @@ class Roughness:
 
     fine: float
     coarse: float | None  # measured only where the fine roughness finds noise
+    correlation: float | None = None  # measured only where the noise would be under the skeleton's scale
 
     @property
     def noisy(self):
-        return self.fine >= CLEAN_ROUGHNESS
+        return self.fine >= CLEAN_ROUGHNESS and not self.shaped
+
+    @property
+    def shaped(self):
+        """Rough at the fine scale only, with the vertices leaning like their neighbours: a low-poly model."""
+        return self.correlation is not None and self.correlation >= SHAPE_CORRELATION
 
     @property
     def skeleton_scale(self):
@@ -87,6 +107,9 @@ class Roughness:
 
     def describe(self):
         """One line a user can read."""
+        if self.shaped:
+            return (f"surface roughness {self.fine:.1f}°, its faces turning with the shape (neighbouring vertices "
+                    f"lean alike: {self.correlation:.2f}, noise under {SHAPE_CORRELATION:g}): clean")
         if not self.noisy:
             return f"surface roughness {self.fine:.1f}° (clean under {CLEAN_ROUGHNESS:g}°)"
         scale = (f"{self.coarse:.1f}° over wider patches (from {SKELETON_ROUGHNESS:g}°: noise at the skeleton's "
@@ -99,8 +122,15 @@ def measure(mesh):
     """The `Roughness` of a mesh."""
     points, normals = surface_roughness.surface_samples(mesh.vertices, mesh.faces)
     fine = surface_roughness.roughness(points, normals)
-    coarse = surface_roughness.coarse_roughness(points, normals, len(mesh.faces)) if fine >= CLEAN_ROUGHNESS else None
-    return Roughness(fine, coarse)
+    if fine < CLEAN_ROUGHNESS:
+        return Roughness(fine, None)
+    coarse = surface_roughness.coarse_roughness(points, normals, len(mesh.faces))
+    if coarse >= SKELETON_ROUGHNESS:
+        return Roughness(fine, coarse)
+    # on the vertices as they meet (an STL file stores every triangle's corners apart)
+    welded, inverse = np.unique(np.asarray(mesh.vertices, dtype=np.float64), axis=0, return_inverse=True)
+    faces = inverse.reshape(-1)[np.asarray(mesh.faces, dtype=np.int64)]
+    return Roughness(fine, coarse, normal_filtering.noise_correlation(welded, faces))
 
 
 def is_closed(faces):
