@@ -1,6 +1,7 @@
 """The process's limits and environment: an address-space limit (``ulimit -v``), a threading layer
 chosen by ``NUMBA_THREADING_LAYER``, a ``fork()`` after a run. Each case runs in a child process."""
 
+import os
 import subprocess
 import sys
 
@@ -57,3 +58,20 @@ def test_an_address_space_limit_too_small_for_a_library_is_named_in_one_line(inp
     batch = _under_limit(["batch", str(inputs / "cloud.xyz"), "--out", str(tmp_path / "batch"), "--workers", "1"],
                          limit_kib, tmp_path)
     assert batch.returncode != 0 and "address space" in batch.stderr.splitlines()[-1], batch.stderr[-2000:]
+
+
+@pytest.mark.parametrize("layer, named", [("tbb", "TBB"), ("no-such-layer", "unknown")])
+def test_a_threading_layer_numba_cannot_start_is_named_in_one_line(inputs, tmp_path, layer, named):
+    """``NUMBA_THREADING_LAYER=tbb`` where TBB is not installed (numba's TBB module hidden here, so
+    that the case is the same where it is) printed numba's traceback. The user chose the layer: it is
+    not replaced behind their back, the line names the variable and what to do."""
+    code = ("import sys\nsys.modules['numba.np.ufunc.tbbpool'] = None  # as where TBB is not installed\n"
+            "from skelfilter.cli import main\nsys.exit(main(sys.argv[1:]))\n")
+    done = subprocess.run([sys.executable, "-c", code, "denoise", str(inputs / "volume.npy"),
+                           str(tmp_path / "out.npy")], env={**os.environ, "NUMBA_THREADING_LAYER": layer},
+                          capture_output=True, text=True, timeout=600)
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and len(lines) == 1, done.stderr[-2000:]
+    assert lines[0].startswith(f"skelfilter: error: NUMBA_THREADING_LAYER={layer}: ") and named in lines[0]
+    assert "unset NUMBA_THREADING_LAYER" in lines[0]
+    assert not (tmp_path / "out.npy").exists()
