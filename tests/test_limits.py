@@ -75,3 +75,40 @@ def test_a_threading_layer_numba_cannot_start_is_named_in_one_line(inputs, tmp_p
     assert lines[0].startswith(f"skelfilter: error: NUMBA_THREADING_LAYER={layer}: ") and named in lines[0]
     assert "unset NUMBA_THREADING_LAYER" in lines[0]
     assert not (tmp_path / "out.npy").exists()
+
+
+FORK = r'''
+import os, sys
+import numba
+import trimesh
+from skelfilter.mesh import pipeline
+
+box = trimesh.creation.box()
+faces = len(pipeline.denoise_mesh(box, resolution=32, output_mesh="closed").faces)
+print(numba.threading_layer(), flush=True)
+pid = os.fork()
+if pid == 0:  # as multiprocessing's 'fork' start method does
+    try:
+        same = len(pipeline.denoise_mesh(box, resolution=32, output_mesh="closed").faces) == faces
+    except BaseException as exc:
+        print(f"the child raised {exc!r}", flush=True)
+        os._exit(3)
+    os._exit(0 if same else 4)
+print(os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1]), flush=True)
+print(len(pipeline.denoise_mesh(box, resolution=32, output_mesh="closed").faces) == faces)
+'''
+
+
+@pytest.mark.parametrize("layer", ["default", "omp", "workqueue"])
+def test_a_process_forked_after_a_run_denoises(layer):
+    """A library run, then ``fork()`` (multiprocessing's 'fork' start method): numba's GNU OpenMP
+    layer, the one it picks on Linux without TBB, killed the child (SIGTERM, numba's line
+    "fork() called from a process already using GNU OpenMP"). The child runs the kernels serially
+    instead; the parent keeps its threads. The threading layer stays the user's (or numba's) choice:
+    workqueue is fork-safe but not thread-safe."""
+    done = subprocess.run([sys.executable, "-c", FORK], env={**os.environ, "NUMBA_THREADING_LAYER": layer},
+                          capture_output=True, text=True, timeout=600)
+    lines = done.stdout.split()
+    assert done.returncode == 0 and lines[1:] == ["0", "True"], (done.stdout, done.stderr[-2000:])
+    if layer != "default":
+        assert lines[0] == layer

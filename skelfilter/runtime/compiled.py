@@ -22,9 +22,18 @@ call from the main thread, the only one where Python handles signals, holds them
 
 Held, the signal acts once the kernel is ready or has returned
 (`skelfilter.runtime.signals.deferred`); the thread's signal mask is as it was afterwards.
+
+numba's GNU OpenMP threading layer (the one it picks on Linux where TBB is not installed) cannot run
+in a child forked after it started: numba kills such a child (SIGTERM) at its first parallel kernel,
+and ``multiprocessing``'s 'fork' start method forks so. There a parallel kernel runs its serial twin,
+the same function compiled without ``parallel`` (one thread per process, as a pool of processes
+wants). The threading layer itself stays numba's or the user's choice: the fork-safe ``workqueue``
+is not thread-safe (two threads running kernels at once abort the process).
 """
 
+import os
 import threading
+import types
 
 import numba
 from numba.core.registry import CPUDispatcher
@@ -52,14 +61,59 @@ def njit(**options):
 class HeldKernel(CPUDispatcher):
     """numba's dispatcher, holding the signals while it compiles a signature (from whatever thread,
     and from Python or another kernel: numba compiles every signature through ``compile``) and while
-    a call from Python in the main thread runs. Kernels calling kernels do not pass by ``__call__``."""
+    a call from Python in the main thread runs; a parallel kernel called in a child forked from a
+    process running GNU OpenMP runs its serial twin. Kernels calling kernels do not pass by
+    ``__call__``."""
 
     def compile(self, sig):
         with deferred():
             return super().compile(sig)
 
     def __call__(self, *args, **kwargs):
+        kernel = super().__call__
+        if _forked["after_gnu_openmp"] and self.targetoptions.get("parallel"):
+            kernel = self._serial_twin()
         if threading.current_thread() is not threading.main_thread():
-            return super().__call__(*args, **kwargs)
+            return kernel(*args, **kwargs)
         with deferred():
-            return super().__call__(*args, **kwargs)
+            return kernel(*args, **kwargs)
+
+    def _serial_twin(self):
+        """The kernel compiled without ``parallel`` (``prange`` runs as ``range``), made at its first
+        use. It is compiled from a copy of the function under a name of its own: numba's cache tells
+        kernels apart by name and code, not by options, and would give the twin the parallel code."""
+        twin = self.__dict__.get("serial_twin")
+        if twin is None:
+            function = self.py_func
+            copy = types.FunctionType(function.__code__, function.__globals__, function.__name__,
+                                      function.__defaults__, function.__closure__)
+            copy.__qualname__ = f"{function.__qualname__}_serial"
+            options = {name: value for name, value in self.targetoptions.items()
+                       if name not in ("parallel", "nopython")}
+            twin = self.__dict__["serial_twin"] = njit(**options)(copy)
+        return twin
+
+
+# Whether this process was forked from one whose numba threads ran on GNU OpenMP (or from a child of one).
+_forked = {"after_gnu_openmp": False}
+
+
+def _gnu_openmp_started():
+    """Whether numba's threads have started, on GNU OpenMP."""
+    try:
+        layer = numba.threading_layer()
+    except ValueError:  # no parallel kernel has run: no threads yet
+        return False
+    if layer != "omp":
+        return False
+    from numba.np.ufunc import omppool
+
+    return omppool.openmp_vendor == "GNU"
+
+
+def _note_fork():
+    _forked["after_gnu_openmp"] = _forked["after_gnu_openmp"] or _gnu_openmp_started()
+
+
+# Only skelfilter's own note, in the child: the process's behaviour is not changed.
+os.register_at_fork(after_in_child=_note_fork)
