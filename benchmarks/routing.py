@@ -12,7 +12,6 @@ literature's θ (mean face-normal angle to the truth) and the change measured on
 
 import argparse
 import datetime
-import subprocess
 import sys
 import time
 import warnings
@@ -87,11 +86,9 @@ def _fmt(value, digits=2):
 
 
 def report(rows, errors):
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                            cwd=routing_corpus.ROOT).stdout.strip()
     out = ["# Routing: what the default runs on each input", "",
            f"Made by `python benchmarks/routing.py{' --errors' if errors else ''}` on "
-           f"{datetime.date.today().isoformat()} at commit {commit}. The corpus and the classes: "
+           f"{datetime.date.today().isoformat()}. The corpus and the classes: "
            "`benchmarks/routing_corpus.py`; the measure: `skelfilter/mesh/surface_roughness.py`; the "
            "decision: `skelfilter/mesh/output_choice.py`.", ""]
     for split in ("tuning", "held-aside"):
