@@ -116,10 +116,10 @@ for name in names:
 def pymeshlab_written(tmp_path_factory):
     """``{pymeshlab filter: the .mlx pymeshlab writes for it}`` for every filter that reads and writes
     no file and that pymeshlab applies to a small closed mesh without other inputs."""
-    from skelfilter.meshlab import pymeshlab_filters
+    from skelfilter.meshlab import filter_catalogue
 
     folder = tmp_path_factory.mktemp("pymeshlab-written")
-    names = [n for n in pymeshlab.filter_list() if not pymeshlab_filters.touches_files(n)]
+    names = [n for n in pymeshlab.filter_list() if not filter_catalogue.touches_files(n)]
     for _ in names:  # at most one start per filter
         r = subprocess.run([sys.executable, "-c", _WRITE_SCRIPTS, str(folder), *names], capture_output=True,
                            timeout=600)
@@ -131,13 +131,13 @@ def pymeshlab_written(tmp_path_factory):
 
 
 def test_every_filter_name_pymeshlab_writes_resolves_to_its_filter(pymeshlab_written):
-    from skelfilter.meshlab import pymeshlab_filters
+    from skelfilter.meshlab import filter_catalogue
 
     wrong, refused = {}, {}
     for name, path in pymeshlab_written.items():
         written = mlx.parse(mlx.read_bytes(path), str(path))[-1].name
-        if pymeshlab_filters.python_filter_name(written) != name:
-            wrong[written] = (name, pymeshlab_filters.python_filter_name(written))
+        if filter_catalogue.python_filter_name(written) != name:
+            wrong[written] = (name, filter_catalogue.python_filter_name(written))
         try:
             scripts.read_script(path)
         except InputError as exc:

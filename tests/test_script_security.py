@@ -8,7 +8,7 @@ import pytest
 import trimesh
 
 from skelfilter.errors import InputError
-from skelfilter.meshlab import pymeshlab_filters, scripts
+from skelfilter.meshlab import filter_catalogue, scripts
 
 
 def run_cli(*args):
@@ -49,7 +49,7 @@ def test_the_nxs_build_attack_is_refused_and_the_input_survives(mesh_file, tmp_p
     assert digest(mesh_file) == before and not target.exists() and not (tmp_path / "out.ply").exists()
 
 
-@pytest.mark.parametrize("pname", sorted(pymeshlab_filters.FILE_FILTERS))
+@pytest.mark.parametrize("pname", sorted(filter_catalogue.FILE_FILTERS))
 def test_every_filter_touching_files_is_refused(pname, tmp_path):
     path = tmp_path / "s.mlx"
     path.write_text(script(pname))
@@ -58,13 +58,13 @@ def test_every_filter_touching_files_is_refused(pname, tmp_path):
 
 
 def test_every_pymeshlab_filter_with_a_file_parameter_is_refused():
-    named = {f for f, params in pymeshlab_filters.parameter_lists().items()
+    named = {f for f, params in filter_catalogue.parameter_lists().items()
              if any(k in p for p in params for k in ("file", "textname", "texturename"))}
-    assert named and all(pymeshlab_filters.touches_files(f) for f in named)
-    assert named <= pymeshlab_filters.FILE_FILTERS
+    assert named and all(filter_catalogue.touches_files(f) for f in named)
+    assert named <= filter_catalogue.FILE_FILTERS
     # and the ordinary ones still run
     for f in ("apply_coord_taubin_smoothing", "apply_coord_laplacian_smoothing", "set_mesh_name"):
-        assert not pymeshlab_filters.touches_files(f)
+        assert not filter_catalogue.touches_files(f)
 
 
 def test_file_typed_parameters_are_refused(tmp_path):

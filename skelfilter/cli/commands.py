@@ -18,7 +18,7 @@ from skelfilter.errors import InputError, ParameterError, SkelfilterError
 from skelfilter.io import formats, mesh_files, output_files
 from skelfilter.jobs import denoise_file
 from skelfilter.mesh import pipeline as mesh_pipeline
-from skelfilter.meshlab import descriptions, pymeshlab_filters, scripts
+from skelfilter.meshlab import descriptions, filter_catalogue, scripts
 from skelfilter.meshlab.descriptions import ADD_SKELETON_NOISE, SKELETON_SALIENCY_DENOISE
 from skelfilter.params import DenoiseParams, NoiseParams, VolumeParams
 from skelfilter.runtime import memory, signals, worker_threads
@@ -150,8 +150,8 @@ def _filters(args):
         if description is not None:
             print(descriptions.text(description))
             return
-        pname = pymeshlab_filters.python_filter_name(args.name) or args.name
-        params = pymeshlab_filters.parameter_lists().get(pname)
+        pname = filter_catalogue.python_filter_name(args.name) or args.name
+        params = filter_catalogue.parameter_lists().get(pname)
         if params is None:
             raise InputError(f"no filter {args.name!r}: not a skelfilter filter "
                              f"({', '.join(d.name for d in descriptions.FILTERS)}) nor a pymeshlab filter")
@@ -159,7 +159,7 @@ def _filters(args):
         return
     print("\n\n".join(descriptions.text(d) for d in descriptions.FILTERS))
     if args.meshlab:
-        for name, params in sorted(pymeshlab_filters.parameter_lists().items()):
+        for name, params in sorted(filter_catalogue.parameter_lists().items()):
             print("\n" + _meshlab_filter_text(name, params))
 
 

@@ -182,6 +182,15 @@ def atomic_write(path, write, protect=(), sidecars=None):
                     os.unlink(tmp)
 
 
+def write_bytes(path, data, protect=(), sidecars=None):
+    """`atomic_write` of ``data`` (bytes) to ``path``, with its ``sidecars``."""
+    def write(tmp):
+        with open(tmp, "wb") as f:
+            f.write(data)
+
+    atomic_write(path, write, protect, sidecars=sidecars)
+
+
 def check_sidecars(path, sidecars):
     """Refuse to replace a file beside the output that is not part of it: a sidecar may replace
     only a file the output it replaces names (an OBJ's ``mtllib``, its library's ``map_Kd``).

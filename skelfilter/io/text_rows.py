@@ -51,3 +51,10 @@ def numbers(lines):
                                                           re.I))
         raise ValueError(f"{bad.decode('latin-1')!r} is not a number") from None
     return values, counts
+
+
+def decimal_places(points):
+    """Decimal places for text formats (trimesh writes fixed-point numbers) that keep 17
+    significant digits of the largest coordinate, so a mesh a micron across keeps its shape."""
+    largest = float(np.abs(points).max()) if len(points) else 0.0
+    return int(np.clip(17 - np.floor(np.log10(largest)), 8, 330)) if largest > 0 else 8

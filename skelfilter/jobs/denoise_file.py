@@ -15,7 +15,7 @@ import trimesh
 
 from skelfilter.core import pipeline
 from skelfilter.errors import InputError, OpenSurfaceError, ParameterError
-from skelfilter.io import formats, mesh_files, output_files, point_files, volume_files
+from skelfilter.io import formats, mesh_files, output_files, ply_mesh, point_files, volume_files
 from skelfilter.mesh import marching_cubes, point_cloud
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.params import DenoiseParams, VolumeParams
@@ -230,5 +230,5 @@ def _save_skeleton(path, result, grid, protect):
                             ("sigma_bar", s.sigma_bar), ("rho_plus", s.rho_plus), ("kept", s.kept)):
             props[key].append(values)
         props["stage"].append(np.full(len(s.voxels), stage_id))
-    mesh_files.save_point_cloud_ply(path, np.concatenate(points), {k: np.concatenate(v) for k, v in props.items()},
-                            protect)
+    ply_mesh.save_point_cloud_ply(path, np.concatenate(points), {k: np.concatenate(v) for k, v in props.items()},
+                                  protect)

@@ -21,7 +21,7 @@ import trimesh
 
 from skelfilter.errors import InputError, ParameterError, SkelfilterError
 from skelfilter.io import mesh_files, output_files
-from skelfilter.meshlab import descriptions, mlx, pymeshlab_filters
+from skelfilter.meshlab import descriptions, filter_catalogue, mlx, pymeshlab_filters
 from skelfilter.runtime.progress import Progress
 
 
@@ -83,14 +83,14 @@ def _check(element, source):
         if element.name == description.name:
             return _check_skelfilter(element, description, source)
     where = f"{source}:{element.line}: filter {element.name!r}"
-    pname = pymeshlab_filters.python_filter_name(element.name)
+    pname = filter_catalogue.python_filter_name(element.name)
     if pname is None:
         raise InputError(f"{where}: unknown filter: not a skelfilter filter "
                          f"({', '.join(d.name for d in descriptions.FILTERS)}) and not available in pymeshlab")
-    if pymeshlab_filters.touches_files(pname):
+    if filter_catalogue.touches_files(pname):
         raise InputError(f"{where}: reads or writes files; not allowed in scripts")
     for p in element.params:
-        if p.attrs.get("type") in pymeshlab_filters.FILE_TYPES:
+        if p.attrs.get("type") in filter_catalogue.FILE_TYPES:
             raise InputError(f"{source}:{p.line}: filter {element.name!r}, parameter {p.name!r}: a file name "
                              f"({p.attrs.get('type')}); not allowed in scripts")
     params, attrs = pymeshlab_filters.check_filter(element, pname, source)
@@ -221,10 +221,4 @@ def export_script(path, description, params, protect=()):
     """Write a ``.mlx`` script applying one skelfilter filter with ``params``, atomically."""
     if not str(path).lower().endswith(".mlx"):
         raise InputError(f"{path}: a filter script's name ends in .mlx")
-    text = mlx.script_text([filter_element(description, params)])
-
-    def write(tmp):
-        with open(tmp, "w", encoding="utf-8") as f:
-            f.write(text)
-
-    output_files.atomic_write(path, write, protect)
+    output_files.write_bytes(path, mlx.script_text([filter_element(description, params)]).encode("utf-8"), protect)
