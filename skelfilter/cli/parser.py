@@ -159,7 +159,8 @@ def build_parser(full_help=False):
                      "metrics against it (without it: roughness, distance moved, volume change)")
     cmp.add_argument("--out", default="comparison-output", help="output folder (default: comparison-output)")
     cmp.add_argument("--jobs", type=int, help="MeshLab/MeshLib child processes at once (overrides [run] jobs)")
-    cmp.add_argument("--resolution", type=int, help="noise grid resolution (overrides [run] resolution)")
+    cmp.add_argument("--resolution", type=int, help="voxels along the longest side of the grid the distances "
+                     "are measured in (160; a configuration's noise grid too: overrides [run] resolution)")
     _add_display_flags(cmp)
     return parser
 
