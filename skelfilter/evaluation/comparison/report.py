@@ -160,11 +160,12 @@ def _intro(results):
     cfg = results["config"]
     source = (f"Configuration {cfg['path']}" if cfg["path"] else
               "The meshes given, each as it is: skelfilter's default beside MeshLab's filters")
-    return (f"{source}; {len(results['cases'])} models; wall time {results['wall_seconds']:.0f} s. Distances "
-            f"are in voxels of each model's grid ({cfg['resolution']} voxels along the longest side). "
+    models = len(results["cases"])
+    return (f"{source}; {models} model{'s' if models != 1 else ''}; wall time {results['wall_seconds']:.0f} s. "
+            f"Distances are in voxels of each model's grid ({cfg['resolution']} voxels along the longest side). "
             "Marked: the best filter in a column; the input and the clean mesh are references and do not "
-            "compete, and with no clean mesh nothing is best: roughness, how far the surface moved and how "
-            "much the volume changed say what a filter did, not whether it was right.")
+            "compete. With no clean mesh only the time is marked: roughness, how far the surface moved and "
+            "how much the volume changed say what a filter did, not whether it was right.")
 
 
 def _markdown(results, sweep_png):
