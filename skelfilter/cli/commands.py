@@ -7,6 +7,7 @@ itself read off the parameter dataclasses in :mod:`skelfilter.params`.
 
 import dataclasses
 import functools
+import importlib
 import logging
 import os
 import re
@@ -15,15 +16,18 @@ import warnings
 
 from skelfilter.cli import parser
 from skelfilter.errors import InputError, ParameterError, SkelfilterError
-from skelfilter.io import formats, mesh_files, output_files
-from skelfilter.jobs import denoise_file
-from skelfilter.mesh import pipeline as mesh_pipeline
-from skelfilter.meshlab import descriptions, filter_catalogue, scripts
+from skelfilter.meshlab import descriptions
 from skelfilter.meshlab.descriptions import ADD_SKELETON_NOISE, SKELETON_SALIENCY_DENOISE
 from skelfilter.params import DenoiseParams, NoiseParams, VolumeParams
-from skelfilter.runtime import memory, signals, worker_threads
+from skelfilter.runtime import memory, signals
 from skelfilter.runtime.extras import need
 from skelfilter.runtime.progress import Progress
+
+# What the commands run on: trimesh, numba's kernels, scipy. Loaded once the command line is read
+# (`run`), not with this module, so that `--help` and a mistyped flag answer in a tenth of a second.
+LIBRARIES = ("skelfilter.io.formats", "skelfilter.io.mesh_files", "skelfilter.io.output_files",
+             "skelfilter.jobs.denoise_file", "skelfilter.mesh.pipeline", "skelfilter.meshlab.filter_catalogue",
+             "skelfilter.meshlab.scripts", "skelfilter.runtime.worker_threads")
 
 
 def _params(description, args):
@@ -33,6 +37,9 @@ def _params(description, args):
 
 
 def _denoise(args):
+    from skelfilter.io import output_files
+    from skelfilter.jobs import denoise_file
+
     if args.close:
         if args.output_mesh not in (None, "closed"):
             raise InputError(f"--close contradicts --output-mesh {args.output_mesh}")
@@ -63,6 +70,7 @@ def _write_preview(path, protect, progress, source, before, after):
     """``--preview``: the input and the output side by side, from the camera ``skelfilter compare``
     chooses for the input (``source``: the input's path, whose format says which axis is up)."""
     from skelfilter.evaluation import camera, figures
+    from skelfilter.io import output_files
 
     with progress.step("preview"):
         output_files.atomic_write(path, lambda tmp: figures.save_panels(
@@ -108,6 +116,9 @@ def _batch(args):
 
 
 def _noise(args):
+    from skelfilter.io import formats, mesh_files, output_files
+    from skelfilter.mesh import pipeline as mesh_pipeline
+
     params = _params(ADD_SKELETON_NOISE, args)
     output_files.check_output(args.output, [args.input], formats.MESH_FORMATS)
     mesh = mesh_files.load_mesh(args.input)
@@ -118,6 +129,9 @@ def _noise(args):
 
 
 def _run_script(args):
+    from skelfilter.io import formats, mesh_files, output_files
+    from skelfilter.meshlab import scripts
+
     steps = scripts.read_script(args.script)
     output_files.check_output(args.output, {args.input: "input", args.script: "script"}, formats.MESH_FORMATS)
     mesh = mesh_files.load_mesh(args.input)
@@ -131,6 +145,8 @@ def _run_script(args):
 
 
 def _export_script(args):
+    from skelfilter.meshlab import scripts
+
     description = descriptions.find(args.filter)
     scripts.export_script(args.output, description, _params(description, args))
 
@@ -142,6 +158,8 @@ def _meshlab_filter_text(name, params):
 
 
 def _filters(args):
+    from skelfilter.meshlab import filter_catalogue
+
     if args.markdown:
         print(descriptions.markdown(), end="")
         return
@@ -194,6 +212,7 @@ def _compare(args):
 
 def _meshes(inputs):
     """The mesh files among ``inputs`` (files, folders, patterns); what else a folder holds is left."""
+    from skelfilter.io import formats
     from skelfilter.jobs.batch_files import expand_inputs
 
     found = expand_inputs(inputs)
@@ -258,12 +277,16 @@ def run(argv=None):
     """
     try:
         try:
-            signals.unblock()
             argv, full_help = parser.help_all(sys.argv[1:] if argv is None else list(argv))
             args = parser.build_parser(full_help).parse_args(argv)
+            for name in LIBRARIES:  # their native threads start with the signals held
+                importlib.import_module(name)
+            signals.unblock()
             _route_library_messages(getattr(args, "progress", None) is False)
             memory.return_freed_memory()
             if args.command != "denoise":  # denoise starts them only once it has something to do
+                from skelfilter.runtime import worker_threads
+
                 worker_threads.start()
             return COMMANDS[args.command](args) or 0
         finally:

@@ -23,7 +23,6 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from skelfilter.errors import ParameterError
-from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.parameter_fields import ABSOLUTE, RELATIVE
 from skelfilter.params import DenoiseParams, NoiseParams
 
@@ -154,11 +153,17 @@ class FilterDescription:
         return self.params_class(**given)
 
 
+# The mesh pipeline is imported when a filter is applied, not with its description: `skelfilter --help`
+# reads the descriptions and needs none of the pipeline's libraries.
 def _denoise(mesh, params, progress=None):
+    from skelfilter.mesh import pipeline as mesh_pipeline
+
     return mesh_pipeline.denoise_mesh(mesh, params, progress)
 
 
 def _noise(mesh, params, progress=None):
+    from skelfilter.mesh import pipeline as mesh_pipeline
+
     return mesh_pipeline.noisy_mesh(mesh, params, progress)[0]
 
 
