@@ -238,3 +238,37 @@ def test_same_geodesics_as_one_search_per_pair_with_less_effort():
     assert len(voxels) == 62520
     assert hashlib.sha256(rho.tobytes()).hexdigest()[:16] == "0f7647461ca1c999"
     assert expanded.sum() <= 0.97 * 5_395_611
+
+
+def test_two_hop_cover_keeps_the_lengths():
+    """From a cap of 32 a failed search covers the pairs two edges from its ends: they must still be
+    the capped Dijkstra lengths, and some pairs the chord allows must go unsearched."""
+    from skelfilter.core.geodesic_search import hops_for
+
+    cap = 34.0
+    assert hops_for(cap) == 2 and hops_for(26.0) == 1
+    m = boundary_layer(torus())
+    nodes = np.argwhere(m)
+    flat = np.flatnonzero(m)
+    tree = cKDTree(nodes)
+    rng = np.random.default_rng(3)
+    a, b = [], []
+    # Clusters of pairs around far-apart ends (half way round the torus and less), as neighbouring
+    # skeleton voxels give.
+    for i in rng.choice(len(nodes), 40, replace=False):
+        ends = tree.query_ball_point(nodes[i], 40)
+        j = rng.choice(ends)
+        near_a = tree.query_ball_point(nodes[i], 2 * np.sqrt(3) + 1e-6)
+        near_b = tree.query_ball_point(nodes[j], 2 * np.sqrt(3) + 1e-6)
+        for p in rng.choice(near_a, 8):
+            a += [flat[p]] * 8
+            b += list(flat[rng.choice(near_b, 8)])
+    a, b = np.array(a), np.array(b)
+    rho, expanded = geodesic_importance(m, a, b, cap)
+    truth = graph_geodesics(m, a, b)
+    below = truth < cap - 1e-3
+    assert below.sum() > 100 and (truth >= cap).sum() > 100
+    np.testing.assert_allclose(rho[below], truth[below], rtol=0, atol=1e-4)
+    assert np.all(rho[truth >= cap] == np.float32(cap))
+    covered = (expanded == 0) & (a != b) & (euclidean_importance(m.shape, a, b) < cap) & (truth >= cap)
+    assert covered.sum() > 20

@@ -33,21 +33,37 @@ _LOW = np.uint64(0xFFFFFFFF)
 _HIGH = np.uint64(32)
 
 
-# A search that finds no path under cap + _MARGIN proves every pair within one edge of its ends at
-# each side (g(s, s2) and g(t, t2) at most sqrt(3)) longer than cap, by the triangle inequality.
-_HOPS = 1
-_MARGIN = np.float32(2 * _HOPS * math.sqrt(3.0) + 0.01)  # 0.01: float32 sums of ~100 steps err far less
+# A search that finds no path under cap + margin(hops) proves every pair within `hops` edges of its
+# ends at each side (g(s, s2) and g(t, t2) at most hops sqrt(3)) longer than cap, by the triangle
+# inequality. Two hops make each failed search reach 2 sqrt(3) further, a ring around its ellipse
+# that costs less against the ellipse the longer the cap, and cover more pairs. Nodes settled by the
+# searches that run on noisy fandisk (one hop -> two): at 96 (cap 26) 5.12 M -> 5.47 M, at 128 (cap
+# 32) 3.75 M -> 3.73 M, at 192 (cap 44) 14.81 M -> 13.82 M, at 256 (cap 56) 41.4 M -> 38.2 M (failed
+# searches 15.5 M -> 12.3 M; three hops settle as many, four more). So two hops from a cap of 32.
+_TWO_HOPS_CAP = 32.0
+
+
+def hops_for(cap):
+    """Edges around a failed search's ends within which it covers pairs, for the cap ``cap``."""
+    return 2 if cap >= _TWO_HOPS_CAP else 1
+
+
+@njit(inline="always")
+def _margin(hops):
+    return np.float32(2 * hops * math.sqrt(3.0) + 0.01)  # 0.01: float32 sums of ~100 steps err far less
+
+
 # Queries in turn per thread: runs of _RUN neighbouring ones, so that the pairs a search covers come
 # after it in the same thread.
 _RUN = 256
 
 
 @njit()
-def _astar_chunk(indptr, indices, steps, coords, sources, targets, cap, queries_of, first, stride,
+def _astar_chunk(indptr, indices, steps, coords, sources, targets, cap, hops, queries_of, first, stride,
                  rho, expanded, covered):
     """The runs of queries ``first, first + stride, ...`` in turn, sharing one set of scratch arrays."""
     n = len(indptr) - 1
-    reach = np.float32(cap + _MARGIN)
+    reach = np.float32(cap + _margin(hops))
     # Per node: the query's tag and the bits of g; g belongs to the current query only when the tag
     # is its own, so nothing is reset between queries. Non-negative float32 bits compare as int32.
     state = np.zeros((n, 2), dtype=np.int32)
@@ -114,18 +130,19 @@ def _astar_chunk(indptr, indices, steps, coords, sources, targets, cap, queries_
             rho[q] = min(length, cap)
             expanded[q] = settled
             if length >= reach:
-                _cover(indptr, indices, sources, targets, queries_of, s, t, near, seen, ring, 2 * tag, covered)
-                _cover(indptr, indices, sources, targets, queries_of, t, s, near, seen, ring, 2 * tag + 1, covered)
+                _cover(indptr, indices, sources, targets, queries_of, s, t, hops, near, seen, ring, 2 * tag, covered)
+                _cover(indptr, indices, sources, targets, queries_of, t, s, hops, near, seen, ring, 2 * tag + 1,
+                       covered)
 
 
 @njit()
-def _within_hops(indptr, indices, start, seen, mark, ring):
-    """The nodes at most `_HOPS` edges from ``start`` (tagged ``mark`` in ``seen``); their count, in ``ring``."""
+def _within_hops(indptr, indices, start, hops, seen, mark, ring):
+    """The nodes at most ``hops`` edges from ``start`` (tagged ``mark`` in ``seen``); their count, in ``ring``."""
     ring[0] = start
     seen[start] = mark
     count = 1
     begin = 0
-    for _ in range(_HOPS):
+    for _ in range(hops):
         end = count
         for i in range(begin, end):
             u = ring[i]
@@ -140,10 +157,10 @@ def _within_hops(indptr, indices, start, seen, mark, ring):
 
 
 @njit()
-def _cover(indptr, indices, sources, targets, queries_of, s, t, near, seen, ring, tag, covered):
-    """Mark the queries from a node near ``s`` to a node near ``t`` (`_HOPS` edges each) as covered."""
-    _within_hops(indptr, indices, t, near, tag, ring)
-    count = _within_hops(indptr, indices, s, seen, tag, ring)
+def _cover(indptr, indices, sources, targets, queries_of, s, t, hops, near, seen, ring, tag, covered):
+    """Mark the queries from a node near ``s`` to a node near ``t`` (``hops`` edges each) as covered."""
+    _within_hops(indptr, indices, t, hops, near, tag, ring)
+    count = _within_hops(indptr, indices, s, hops, seen, tag, ring)
     for i in range(count):
         s2 = ring[i]
         for q in range(queries_of[s2], queries_of[s2 + 1]):
@@ -190,13 +207,13 @@ def _pop(keys, items, size):
 
 
 @njit(parallel=True)
-def astar(indptr, indices, steps, coords, sources, targets, cap, queries_of, n_chunks):
+def astar(indptr, indices, steps, coords, sources, targets, cap, hops, queries_of, n_chunks):
     rho = np.empty(len(sources), dtype=np.float32)
     expanded = np.empty(len(sources), dtype=np.int32)
     covered = np.zeros(len(sources), dtype=np.bool_)
     # Strided runs: neighbouring (sorted) queries are spatially close, so each run keeps some
     # locality while the chunks get statistically equal work.
     for c in prange(n_chunks):
-        _astar_chunk(indptr, indices, steps, coords, sources, targets, cap, queries_of, c, n_chunks,
+        _astar_chunk(indptr, indices, steps, coords, sources, targets, cap, hops, queries_of, c, n_chunks,
                      rho, expanded, covered)
     return rho, expanded

@@ -17,7 +17,7 @@ import numpy as np
 from numba import prange
 from scipy import ndimage
 
-from skelfilter.core.geodesic_search import STEP, astar
+from skelfilter.core.geodesic_search import STEP, astar, hops_for
 from skelfilter.core.neighbourhood import OFFSETS_26, flat_offsets, ravel, unravel
 from skelfilter.errors import ParameterError
 from skelfilter.runtime.compiled import njit
@@ -132,12 +132,13 @@ def geodesic_importance(boundary, a, b, cap):
     (tighter than the Euclidean ``|u - b|``, which it never undercuts) and the
     result equals Dijkstra's. A search stops once the smallest ``g + h`` left
     open reaches ``cap``, so it only settles voxels ``u`` of M with
-    ``|a - u| + |u - b| < cap``. Searches run to ``cap + 2√3`` (and a little):
+    ``|a - u| + |u - b| < cap``. Searches run to ``cap + 2 k √3`` (and a
+    little), ``k`` one edge, or two from a cap of 32 (``geodesic_search.hops_for``):
     one that finds no path proves, by the triangle inequality, every pair
-    ``{a2, b2}`` with ``a2`` at most one edge from ``a`` and ``b2`` from ``b``
-    longer than ``cap``, and those pairs are not searched (neighbouring
+    ``{a2, b2}`` with ``a2`` at most ``k`` edges from ``a`` and ``b2`` from
+    ``b`` longer than ``cap``, and those pairs are not searched (neighbouring
     skeleton voxels have neighbouring feature points; on noisy fandisk at 256
-    this settles 17 % fewer nodes).
+    this settles 27 % fewer nodes than searching every pair).
 
     Parameters
     ----------
@@ -217,7 +218,7 @@ def geodesic_importance(boundary, a, b, cap):
         sources, targets = sources[by_source], targets[by_source]
         queries_of = np.searchsorted(sources, np.arange(len(nodes) + 1)).astype(np.int32)
         rho_run, expanded_run = astar(
-            indptr, indices, steps, coords, sources, targets, np.float32(cap), queries_of,
+            indptr, indices, steps, coords, sources, targets, np.float32(cap), hops_for(cap), queries_of,
             min(numba.get_num_threads(), len(run))
         )
         rho[run[by_source]], expanded[run[by_source]] = rho_run, expanded_run
