@@ -50,18 +50,21 @@ def resolve_params(params=None, **overrides):
     return build(DenoiseParams, params, **overrides)
 
 
-def denoise_padded(volume, params, progress):
+def denoise_padded(volume, params, progress, foreground=None):
     """Both stages on a volume whose set keeps ``params.padding_voxels`` from the faces.
 
     Each stage's mask and field are consumed by what follows (in place, to
     keep memory low): ``stages`` keeps the first stage's mask and every
-    stage's skeleton data.
+    stage's skeleton data. ``foreground``: the (stage, estimate) pair `stage_at_noise_scale` gave on
+    this volume with these parameters, where the caller ran it already.
     """
     result = DenoiseResult(mask=volume, field=None, timings=progress.timings)
     current = volume
     if params.stages in ("both", "foreground"):
         with progress.stage("foreground"):
-            stage, estimate = stage_at_noise_scale(current, params, "bumps", progress)
+            if foreground is None:
+                foreground = stage_at_noise_scale(current, params, "bumps", progress)
+            stage, estimate = foreground
             if params.keep_features == "on":
                 result.noise["foreground"] = keep_features(current, stage, params, "bumps", progress, estimate)
         result.stages["foreground"] = stage
@@ -316,8 +319,8 @@ def _denoise_volume(volume, params, progress, spacing, affine, overrides):
     result, stages_input = _fine_pass_then_stages(cubic, params, progress, volume if resample else None)
     if keep:
         with progress.step("input surface"):
-            if input_field is None or stages_input is not cubic:
-                input_field = voxel_spacing.signed_distance(stages_input, (1.0, 1.0, 1.0))
+            if stages_input is not cubic:
+                input_field = None  # the stages' input's own distances, at the voxels read
             surface_field.keep_input_field(result.field, result.mask, stages_input, input_field)
     del cubic, input_field, stages_input
     if resample:
@@ -373,14 +376,22 @@ def _fine_pass_then_stages(cubic, params, progress, sampled=None):
             smoothed, fine = volume_fine_pass.fine_pass(cubic, sampled)
         progress.note(fine.describe())
         if smoothed is not cubic:
-            result = _denoise_cubic(smoothed, params, progress)
-            if not passes_through(params, result):
+            # The foreground stage's noise estimate alone decides whether the smoothed volume passes
+            # through: where it finds noise, the rest of its stages (features kept, specks, needles: a
+            # tenth of the volume path) is run only if the input passes through and it is kept.
+            foreground = _foreground_first(smoothed, params, progress)
+            result = None
+            if foreground is None or not foreground[1][1].found:
+                result = _denoise_cubic(smoothed, params, progress, foreground)
+            if result is None or not passes_through(params, result):
                 progress.note("noise at the skeleton's scale: the fine pass is undone, the stages run on the input")
                 on_input = _denoise_cubic(cubic, params, progress)
                 if not passes_through(params, on_input):
                     return on_input, cubic
                 # passed through, the input would keep all its noise
                 progress.note("no noise at the skeleton's scale on the input: the result after the fine pass is kept")
+                if result is None:
+                    result = _denoise_cubic(smoothed, params, progress, foreground)
             result.fine_noise = fine
             return result, smoothed
     return _denoise_cubic(cubic, params, progress), cubic
@@ -406,11 +417,24 @@ def _check_side(voxels, params, spacing=None):
                          "crop the volume, or resample it to coarser voxels")
 
 
-def _denoise_cubic(volume, params, progress):
-    """The stages on a non-empty boolean volume of cubic voxels."""
+def _foreground_first(volume, params, progress):
+    """The foreground stage of `_denoise_cubic` on ``volume``, ahead of the rest: ``(padded volume,
+    (stage, estimate))`` for `_denoise_cubic`'s ``foreground``; None where the stages do not start
+    with it (background alone)."""
+    if params.stages not in ("both", "foreground"):
+        return None
     params, pad = _cubic_params(volume, params)
     padded = np.pad(volume, pad)
-    result = denoise_padded(padded, params, progress)
+    with progress.stage("foreground"):
+        return padded, stage_at_noise_scale(padded, params, "bumps", progress)
+
+
+def _denoise_cubic(volume, params, progress, foreground=None):
+    """The stages on a non-empty boolean volume of cubic voxels; ``foreground``: `_foreground_first`'s
+    result on ``volume``, or None."""
+    params, pad = _cubic_params(volume, params)
+    padded, first = foreground if foreground is not None else (np.pad(volume, pad), None)
+    result = denoise_padded(padded, params, progress, first)
     inner = (slice(pad, -pad),) * 3
     result.mask = np.ascontiguousarray(result.mask[inner])
     result.field = np.ascontiguousarray(result.field[inner])

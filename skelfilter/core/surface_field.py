@@ -4,9 +4,11 @@ voxels' constraint so that its surface is smooth and still encloses exactly the 
 
 import numpy as np
 from scipy import ndimage
+from scipy.spatial import cKDTree
 
 from skelfilter.core import reconstruct
 from skelfilter.core.distance import gradient_at
+from skelfilter.runtime.compiled import njit
 
 # Balls of radius D touch the centres of the nearest outside voxels; the
 # boundary between inside and outside voxel centres is half a voxel further in.
@@ -19,6 +21,10 @@ SMOOTHING_ROUNDS = 3
 # Voxels: how far inside (outside) its voxel centre's value is held at least, so no vertex of the
 # marching cubes lands on a centre (no triangle without area).
 CONSTRAINT_MARGIN = 0.02
+# Voxels: how far `signed_distance_at` looks for a voxel's nearest voxel of the other side before it
+# falls back to whole-grid distance transforms; the band it is asked about lies at the surface, where
+# the nearest such voxel is one or two voxels away.
+NEAREST_REACH = 4
 # Voxels of the finest axis: the reach over which the smoothed surface is moved to enclose its voxels'
 # volume (`match_voxel_volume`); wide enough that the sampling's jitter averages out along the surface,
 # narrow enough that a thin part and the thick one it leaves are matched each on its own.
@@ -48,12 +54,73 @@ def put_distances(field, mask, band, distance):
     flat[band] = np.where(mask.reshape(-1)[band], 1.0, -1.0) * np.maximum(np.abs(distance), 1e-3)
 
 
-def keep_input_field(field, mask, occupancy, input_field, reach=2):
+def keep_input_field(field, mask, occupancy, input_field=None, reach=2):
     """`skelfilter.mesh.marching_cubes.keep_input_surface` for a volume: where the denoising changed
     nothing, ``field`` takes the input's own ``input_field`` (in voxels, > 0 inside, e.g.
-    `skelfilter.core.spacing.signed_distance`). In place."""
+    `skelfilter.core.spacing.signed_distance`; None: the occupancy's signed distance on cubic voxels,
+    `signed_distance_at` the voxels it is read at). In place."""
     band = unchanged_band(field, mask, occupancy, reach)
-    put_distances(field, mask, band, input_field.reshape(-1)[band])
+    distance = signed_distance_at(occupancy, band) if input_field is None else input_field.reshape(-1)[band]
+    put_distances(field, mask, band, distance)
+
+
+def signed_distance_at(mask, indices):
+    """``skelfilter.core.spacing.signed_distance(mask, (1.0, 1.0, 1.0))`` at the flat ``indices``, bit
+    for bit, without its two whole-grid distance transforms: each voxel's nearest voxel of the other
+    side is looked for among the offsets within `NEAREST_REACH`, nearest first; only where one is
+    found there is it looked for among the voxels of the other side next to its own (the nearest
+    voxel of the other side is one of them: its neighbour towards the voxel is nearer, so of the
+    voxel's side), with a k-d tree."""
+    mask = np.ascontiguousarray(mask, dtype=bool)
+    indices = np.asarray(indices, dtype=np.int64)
+    steps = np.arange(-NEAREST_REACH, NEAREST_REACH + 1)
+    offsets = np.stack(np.meshgrid(steps, steps, steps, indexing="ij"), axis=-1).reshape(-1, 3)
+    squared = (offsets ** 2).sum(axis=1)
+    order = np.argsort(squared, kind="stable")
+    within = squared[order] <= NEAREST_REACH ** 2
+    offsets, squared = offsets[order][within][1:], squared[order][within][1:]  # the voxel itself left out
+    found = _nearest_other_side(mask.reshape(-1), np.asarray(mask.shape, dtype=np.int64), indices,
+                                offsets.astype(np.int64), squared.astype(np.int64))
+    # signed_distance's (inside - outside) / 2 with one of the two 0 (a voxel's own side is at 0)
+    distance = np.sqrt(np.maximum(found, 0).astype(np.float64))
+    inside = mask.reshape(-1)[indices]
+    missing = found < 0
+    for side in (True, False):
+        far = missing & (inside == side)
+        if far.any():
+            distance[far] = _nearest_by_tree(mask if side else ~mask, indices[far])
+    return (np.where(inside, distance - 0.0, 0.0 - distance) / 2).astype(np.float32)
+
+
+def _nearest_by_tree(own, indices):
+    """Distance from each voxel of the flat ``indices`` (set in ``own``) to its nearest voxel not
+    in ``own``, exactly as the whole-grid transform gives it (the square root of an integer)."""
+    other = ndimage.binary_dilation(own) & ~own
+    if not other.any():  # no other side on the grid: whatever the transform makes of that
+        return ndimage.distance_transform_edt(own).reshape(-1)[indices]
+    targets = np.argwhere(other)
+    points = np.stack(np.unravel_index(indices, own.shape), axis=-1)
+    _, nearest = cKDTree(targets).query(points)
+    # the square root of the integer squared distance, as the transform takes it
+    return np.sqrt(((targets[nearest] - points) ** 2).sum(axis=1).astype(np.float64))
+
+
+@njit()
+def _nearest_other_side(flat, shape, indices, offsets, squared):
+    """Squared distance from each voxel of ``indices`` to the first of ``offsets`` (nearest first)
+    where ``flat`` differs from it; -1 where none does."""
+    nx, ny, nz = shape[0], shape[1], shape[2]
+    found = np.full(indices.size, -1, dtype=np.int64)
+    for i in range(indices.size):
+        index = indices[i]
+        x, y, z = index // (ny * nz), (index // nz) % ny, index % nz
+        side = flat[index]
+        for k in range(offsets.shape[0]):
+            a, b, c = x + offsets[k, 0], y + offsets[k, 1], z + offsets[k, 2]
+            if 0 <= a < nx and 0 <= b < ny and 0 <= c < nz and flat[(a * ny + b) * nz + c] != side:
+                found[i] = squared[k]
+                break
+    return found
 
 
 def mask_field(mask):
