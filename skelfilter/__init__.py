@@ -24,7 +24,7 @@ import importlib
 # Public names and the module each lives in; modules load on first use so
 # ``import skelfilter`` stays cheap (numba kernels compile or load lazily).
 _EXPORTS = {
-    "core.distance": ["distance_and_features"],
+    "core.distance": ["distance_and_features", "distance_transform"],
     "core.edt_filters": ["filtered_radii", "flat_projection", "kernel_filter", "least_squares", "minify"],
     "errors": ["InputError", "ParameterError", "ResourceError", "SkelfilterError"],
     "core.importance": ["boundary_layer", "euclidean_importance", "geodesic_estimate", "geodesic_importance"],

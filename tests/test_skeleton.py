@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from skelfilter.core.distance import distance_and_features, feature_points, gradient_at
+from skelfilter.core.distance import distance_and_features, distance_transform, feature_points, gradient_at
 from skelfilter.core.neighbourhood import OFFSETS_26, unravel
 from skelfilter.core.skeleton import extended_feature_points, ie_skeleton, ima_skeleton
 
@@ -52,6 +52,20 @@ def test_features_are_scipys(seed):
     sd, si = ndimage.distance_transform_edt(v, return_indices=True)
     assert np.array_equal(d, sd.astype(np.float32))
     assert np.array_equal(f, np.ravel_multi_index(tuple(si), shape))
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_distance_transform_is_scipys(seed):
+    # The distances alone: the same float32 as the feature transform's and scipy's, lines without a
+    # background voxel along the first axes included.
+    rng = np.random.default_rng(seed)
+    shape = tuple(rng.integers(1, 30, 3))
+    v = rng.random(shape) < rng.uniform(0.5, 0.999) if seed % 2 else blob(shape, seed)
+    v.reshape(-1)[-1] = False
+    d = distance_transform(v)
+    assert d.dtype == np.float32
+    assert np.array_equal(d, distance_and_features(v)[0])
+    assert np.array_equal(d, ndimage.distance_transform_edt(v).astype(np.float32))
 
 
 def test_gradient_at_is_central_difference():

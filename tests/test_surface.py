@@ -11,6 +11,7 @@ import pytest
 import trimesh
 
 from skelfilter.core import pipeline, volume_fine_pass
+from skelfilter.core.gaussian_filter import gaussian_filter
 from skelfilter.core.spacing import signed_distance
 from skelfilter.core.surface_field import match_voxel_volume, smooth_constrained
 from skelfilter.mesh.marching_cubes import mask_to_world_mesh
@@ -23,6 +24,18 @@ def _blob(shape, seed):
     from scipy import ndimage
 
     return ndimage.gaussian_filter(np.random.default_rng(seed).standard_normal(shape), 2.0) > 0.05
+
+
+@pytest.mark.parametrize("sigma", [0.8, (0.8, 0.46, 0.8), (1.3, 0.0, 0.5), 2.0])
+@pytest.mark.parametrize("shape", [(1, 1, 1), (2, 9, 3), (17, 5, 23), (30, 31, 32)])
+def test_the_parallel_gaussian_is_scipys_bit_for_bit(sigma, shape):
+    from scipy import ndimage
+
+    rng = np.random.default_rng(len(shape) + shape[0])
+    field = (rng.standard_normal(shape) * 40).astype(np.float32)
+    ours = gaussian_filter(field, sigma)
+    assert ours.dtype == np.float32 and ours is not field
+    assert np.array_equal(ours, ndimage.gaussian_filter(field, sigma, mode="nearest"))
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

@@ -52,6 +52,42 @@ def distance_and_features(volume):
     return distance, features
 
 
+def distance_transform(volume):
+    """EDT ``D`` of a set (eq. 2.4) without the feature transform: float32, equal to
+    ``distance_and_features(volume)[0]`` (the square roots of the same integers).
+
+    The same three passes carry squared distances instead of feature indices, so the passes across
+    the first axis read a number per voxel instead of working one out from a flat index, and the
+    transform moves half the bytes. For the morphology of the later steps (closings, heights above a
+    shape), which read no feature point.
+
+    Parameters
+    ----------
+    volume : (nx, ny, nz) bool ndarray
+        The set X. It must leave at least one background voxel.
+
+    Returns
+    -------
+    distance : float32 ndarray
+        ``D(x) = min {|x - y| : y not in X}``; 0 on the background.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> cube = np.zeros((7, 7, 7), bool); cube[1:6, 1:6, 1:6] = True
+    >>> float(distance_transform(cube)[3, 3, 3])
+    3.0
+    """
+    volume = np.ascontiguousarray(volume, dtype=bool)
+    if volume.all():
+        raise ValueError("the set fills the whole volume: no background to measure distances to")
+    squared = np.empty(volume.shape, dtype=np.int32)
+    distance = np.empty(volume.shape, dtype=np.float32)
+    _first_axis_squared(volume, squared)
+    _other_axes_squared(squared, distance)
+    return distance
+
+
 def feature_points(features, voxels):
     """Flat indices (int64) of the feature points ``f(x)`` of the given flat voxel indices."""
     return features.reshape(-1)[voxels].astype(np.int64)
@@ -97,20 +133,19 @@ def _first_axis(volume, features):
 
 
 @njit()
-def _voronoi_line(ids, perp, out, out_d2, sites):
+def _voronoi_line(perp, nearest, out_d2, sites):
     """Maurer's Voronoi step on one line, as scipy's ``_VoronoiFT`` does it (exactly, in integers).
 
-    ``ids[q]`` is the feature carried so far by element ``q`` (-1: none) and
-    ``perp[q]`` its squared distance across the line; the feature lies at
-    position ``q`` along the line. A site is dropped when its two neighbours
-    hide it (strictly), and each element takes the nearest remaining site,
-    ties to the lower position: the choices scipy makes. ``out_d2`` receives
-    the squared distances; a line without sites is copied unchanged.
+    ``perp[q]`` is the squared distance across the line of the site at position ``q`` along it (-1:
+    no site there). A site is dropped when its two neighbours hide it (strictly), and each element
+    takes the nearest remaining site, ties to the lower position: the choices scipy makes.
+    ``nearest[q]`` receives that site's position and ``out_d2[q]`` its squared distance; on a line
+    without sites ``nearest`` is -1 throughout and ``out_d2`` is left as it was.
     """
-    n = ids.size
+    n = perp.size
     top = -1
     for q in range(n):
-        if ids[q] < 0:
+        if perp[q] < 0:
             continue
         while top >= 1:
             p1 = sites[top]
@@ -124,7 +159,7 @@ def _voronoi_line(ids, perp, out, out_d2, sites):
         top += 1
         sites[top] = q
     if top < 0:
-        out[:] = ids
+        nearest[:] = -1
         return
     last = top
     top = 0
@@ -138,8 +173,16 @@ def _voronoi_line(ids, perp, out, out_d2, sites):
                 break
             d1 = d2
             top += 1
-        out[q] = ids[sites[top]]
+        nearest[q] = sites[top]
         out_d2[q] = d1
+
+
+@njit()
+def _feature_line(ids, perp, nearest, out, out_d2, sites):
+    """The Voronoi step on a line of features: ``out[q]`` the feature nearest to ``q``."""
+    _voronoi_line(perp, nearest, out_d2, sites)
+    for q in range(ids.size):
+        out[q] = -1 if nearest[q] < 0 else ids[nearest[q]]
 
 
 @njit()
@@ -148,6 +191,7 @@ def _perpendicular(ids, perp, ny, nz, i, j, k, axis):
     for q in range(ids.size):
         f = ids[q]
         if f < 0:
+            perp[q] = -1
             continue
         d0 = f // (ny * nz) - i
         d1 = f // nz % ny - j
@@ -167,6 +211,7 @@ def _other_axes(features, distance):
         perp = np.empty(n, np.int64)
         d2 = np.empty(n, np.int64)
         sites = np.empty(n, np.int64)
+        nearest = np.empty(n, np.int64)
         tile = np.empty((B, ny), np.int32)
         for k0 in range(0, nz, B):
             nb = min(B, nz - k0)
@@ -176,7 +221,7 @@ def _other_axes(features, distance):
             for b in range(nb):
                 line = tile[b]
                 _perpendicular(line, perp, ny, nz, i, 0, k0 + b, 1)
-                _voronoi_line(line, perp, out[:ny], d2, sites)
+                _feature_line(line, perp[:ny], nearest, out[:ny], d2, sites)
                 line[:] = out[:ny]
             for j in range(ny):
                 for b in range(nb):
@@ -185,6 +230,60 @@ def _other_axes(features, distance):
             row = features[i, j]
             ids[:nz] = row
             _perpendicular(ids[:nz], perp, ny, nz, i, j, 0, 2)
-            _voronoi_line(ids[:nz], perp, row, d2, sites)
+            _feature_line(ids[:nz], perp[:nz], nearest, row, d2, sites)
+            for k in range(nz):
+                distance[i, j, k] = math.sqrt(d2[k])
+
+
+@njit(parallel=True)
+def _first_axis_squared(volume, squared):
+    """Squared distance to the nearest background voxel along axis 0 (-1: none on the line)."""
+    nx, ny, nz = volume.shape
+    for j in prange(ny):
+        last = np.full(nz, -1, np.int64)
+        for i in range(nx):
+            for k in range(nz):
+                if not volume[i, j, k]:
+                    last[k] = i
+                squared[i, j, k] = -1 if last[k] < 0 else i - last[k]
+        ahead = np.full(nz, -1, np.int64)
+        for i in range(nx - 1, -1, -1):
+            for k in range(nz):
+                if not volume[i, j, k]:
+                    ahead[k] = i
+                gap = squared[i, j, k]
+                if ahead[k] >= 0 and (gap < 0 or ahead[k] - i < gap):
+                    gap = ahead[k] - i
+                squared[i, j, k] = -1 if gap < 0 else gap * gap
+
+
+@njit(parallel=True)
+def _other_axes_squared(squared, distance):
+    """The passes along axes 1 and 2 on squared distances, plane by plane (as `_other_axes`)."""
+    B = 16
+    nx, ny, nz = squared.shape
+    n = max(ny, nz)
+    for i in prange(nx):
+        perp = np.empty(n, np.int64)
+        d2 = np.empty(n, np.int64)
+        sites = np.empty(n, np.int64)
+        nearest = np.empty(n, np.int64)
+        tile = np.empty((B, ny), np.int64)
+        for k0 in range(0, nz, B):
+            nb = min(B, nz - k0)
+            for j in range(ny):
+                for b in range(nb):
+                    tile[b, j] = squared[i, j, k0 + b]
+            for b in range(nb):
+                _voronoi_line(tile[b], nearest[:ny], d2, sites)
+                for j in range(ny):
+                    tile[b, j] = d2[j] if nearest[j] >= 0 else -1
+            for j in range(ny):
+                for b in range(nb):
+                    squared[i, j, k0 + b] = tile[b, j]
+        for j in range(ny):
+            for k in range(nz):
+                perp[k] = squared[i, j, k]
+            _voronoi_line(perp[:nz], nearest[:nz], d2, sites)
             for k in range(nz):
                 distance[i, j, k] = math.sqrt(d2[k])

@@ -11,7 +11,7 @@ a shape in two, or cuts a piece of it loose, removed what joined them: that come
 import numpy as np
 from scipy import ndimage
 
-from skelfilter.core.distance import distance_and_features
+from skelfilter.core.distance import distance_transform
 from skelfilter.core.line_opening import line_opening
 from skelfilter.core.neighbourhood import OFFSETS_26, bounding_box, flat_offsets, push
 from skelfilter.core.noise_estimate import height_above
@@ -117,8 +117,8 @@ def ball_closing(volume, radius):
     """``volume`` closed by a ball of ``radius`` voxels (Euclidean): the voxels that no ball of that
     radius lying in the complement covers. The grid's outside counts as the complement."""
     pad = int(np.ceil(radius)) + 1
-    grown = distance_and_features(np.pad(~volume, pad, constant_values=True))[0] <= radius
-    return (distance_and_features(grown)[0] > radius)[pad:-pad, pad:-pad, pad:-pad]
+    grown = distance_transform(np.pad(~volume, pad, constant_values=True)) <= radius
+    return (distance_transform(grown) > radius)[pad:-pad, pad:-pad, pad:-pad]
 
 
 @njit()
@@ -179,7 +179,7 @@ def connections(stage_set, result, width, most=8):
     sizes = np.bincount(kept.reshape(-1))[1:]
     order = np.argsort(-sizes)[:most] + 1
     gone = removed[box]
-    distance = {label: distance_and_features(kept != label)[0] for label in order}
+    distance = {label: distance_transform(kept != label) for label in order}
     bridges = np.zeros_like(gone)
     for i, a in enumerate(order[1:], 1):
         gaps = [(float((distance[a] + distance[b])[gone].min()), b) for b in order[:i]]
@@ -215,6 +215,6 @@ def skin_far_from_noise(stage_set, pruned, reach, tall=2.0):
     if not noise.any():
         out[box] = removed[box]
         return out
-    out[box] = removed[box] & (distance_and_features(~noise)[0] > reach)
+    out[box] = removed[box] & (distance_transform(~noise) > reach)
     return out
 

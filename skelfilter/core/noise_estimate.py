@@ -31,7 +31,7 @@ import numpy as np
 from numba import prange
 from scipy import ndimage
 
-from skelfilter.core.distance import distance_and_features
+from skelfilter.core.distance import distance_transform
 from skelfilter.core.neighbourhood import bounding_box
 from skelfilter.runtime.compiled import njit
 
@@ -92,7 +92,7 @@ def height_above(part, base, reach):
     far = ~base[box]
     if far.all():  # no base in reach: every voxel is far
         return box, np.where(part[box], np.float32(reach), np.float32(0))
-    height = distance_and_features(far)[0]
+    height = distance_transform(far)
     height[~part[box]] = 0.0
     return box, height
 

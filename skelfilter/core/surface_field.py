@@ -8,6 +8,7 @@ from scipy.spatial import cKDTree
 
 from skelfilter.core import reconstruct
 from skelfilter.core.distance import gradient_at
+from skelfilter.core.gaussian_filter import gaussian_filter
 from skelfilter.runtime.compiled import njit
 
 # Balls of radius D touch the centres of the nearest outside voxels; the
@@ -198,8 +199,8 @@ def smooth_constrained(field, inside, fixed=None, spacing=(1.0, 1.0, 1.0), round
     sigma = axis_sigmas(spacing)
     current = original.copy()
     for _ in range(rounds):
-        once = ndimage.gaussian_filter(current, sigma, mode="nearest")
-        current = 2 * once - ndimage.gaussian_filter(once, sigma, mode="nearest")
+        once = gaussian_filter(current, sigma)  # scipy's, mode "nearest", over the cores
+        current = 2 * once - gaussian_filter(once, sigma)
         _constrain(current, inside, original, fixed, spacing)
     if match_volume:
         current += match_voxel_volume(current, inside, spacing, fixed)

@@ -20,7 +20,7 @@ import numpy as np
 from numba import prange
 from scipy import ndimage
 
-from skelfilter.core.distance import distance_and_features, gradient_at
+from skelfilter.core.distance import distance_transform, gradient_at
 from skelfilter.core.neighbourhood import OFFSETS_6, bounding_box, flat_offsets
 from skelfilter.runtime.compiled import njit
 
@@ -66,7 +66,7 @@ def contraction_direction(volume, smoothing, voxels):
     shape = smoothed_shape(volume, smoothing)
     if not shape.any():
         return np.zeros((len(voxels), 3), dtype=np.float32)
-    distance, _ = distance_and_features(shape)
+    distance = distance_transform(shape)
     return gradient_at(distance, np.asarray(voxels, dtype=np.int64))
 
 
@@ -109,7 +109,7 @@ def max_density(volume, smoothing=0.0, steps=None):
     inside = np.flatnonzero(shape.reshape(-1))
     if len(inside) == 0:
         return density
-    distance, _ = distance_and_features(shape)
+    distance = distance_transform(shape)
     u = gradient_at(distance, inside).astype(np.float64)
     lookup = np.full(shape.size, -1, dtype=np.int32)
     lookup[inside] = np.arange(len(inside), dtype=np.int32)

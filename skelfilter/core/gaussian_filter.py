@@ -1,0 +1,112 @@
+"""scipy's Gaussian filter of a float32 grid (``mode="nearest"``), over the cores.
+
+``scipy.ndimage.gaussian_filter`` runs in one thread; the surface's smoothing
+(`skelfilter.core.surface_field.smooth_constrained`) filters the whole box of a
+256³ grid six times, a tenth of a denoising. This is the same filter, line by
+line as scipy's ``NI_Correlate1D`` computes it, so the result is the same
+float32 bit for bit: each axis in turn (0, 1, 2), the line read as float64,
+``w_0 x_i + Σ_{k = r..1} w_k (x_{i-k} + x_{i+k})`` summed in that order in
+float64 (scipy's sum for a symmetric kernel), the edge value repeated past the
+ends, each axis' result rounded to float32.
+"""
+
+import numpy as np
+from numba import prange
+
+from skelfilter.runtime.compiled import njit
+
+
+def gaussian_weights(sigma, truncate=4.0):
+    """The half kernel ``w_0 .. w_r`` of scipy's ``gaussian_filter1d`` (radius ``int(truncate σ + 0.5)``)."""
+    radius = int(truncate * float(sigma) + 0.5)
+    x = np.arange(-radius, radius + 1)
+    phi = np.exp(-0.5 / (float(sigma) * float(sigma)) * x**2)
+    phi = phi / phi.sum()
+    return np.ascontiguousarray(phi[radius:], dtype=np.float64)
+
+
+def gaussian_filter(field, sigma, truncate=4.0):
+    """``scipy.ndimage.gaussian_filter(field, sigma, mode="nearest", truncate=truncate)`` of a float32
+    3D array, the same bits, in parallel.
+
+    Parameters
+    ----------
+    field : (nx, ny, nz) float32 ndarray
+    sigma : float or sequence of 3 floats
+        Standard deviation along each axis, in voxels; an axis with sigma 0 is not filtered.
+    truncate : float
+
+    Returns
+    -------
+    float32 ndarray
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy import ndimage
+    >>> f = np.random.default_rng(0).random((9, 10, 11)).astype(np.float32)
+    >>> bool((gaussian_filter(f, 0.8) == ndimage.gaussian_filter(f, 0.8, mode="nearest")).all())
+    True
+    """
+    field = np.ascontiguousarray(field, dtype=np.float32)
+    if field.ndim != 3:
+        raise ValueError(f"a 3D grid is filtered, got {field.ndim} dimensions")
+    sigmas = np.broadcast_to(np.asarray(sigma, dtype=float), (3,))
+    out = field
+    for axis in range(3):
+        if sigmas[axis] <= 1e-15:  # scipy skips such an axis
+            continue
+        weights = gaussian_weights(sigmas[axis], truncate)
+        source, out = out, np.empty_like(field)
+        if axis == 2:
+            _last_axis(source, weights, out)
+        else:
+            _across(source, weights, axis, out)
+    return out.copy() if out is field else out
+
+
+@njit(parallel=True)
+def _across(source, weights, axis, out):
+    """Axis 0 or 1: the taps are whole rows along axis 2, read in order."""
+    nx, ny, nz = source.shape
+    radius = weights.size - 1
+    n = nx if axis == 0 else ny
+    for i in prange(nx):
+        line = np.empty(nz, np.float64)
+        for j in range(ny):
+            at = np.int64(i) if axis == 0 else np.int64(j)
+            for k in range(nz):
+                line[k] = np.float64(source[i, j, k]) * weights[0]
+            for tap in range(radius, 0, -1):
+                lo = max(at - tap, 0)
+                hi = min(at + tap, n - 1)
+                w = weights[tap]
+                if axis == 0:
+                    for k in range(nz):
+                        line[k] += (np.float64(source[lo, j, k]) + np.float64(source[hi, j, k])) * w
+                else:
+                    for k in range(nz):
+                        line[k] += (np.float64(source[i, lo, k]) + np.float64(source[i, hi, k])) * w
+            for k in range(nz):
+                out[i, j, k] = np.float32(line[k])
+
+
+@njit(parallel=True)
+def _last_axis(source, weights, out):
+    """Axis 2: each line copied once, its ends repeated, so that the taps run over whole rows too."""
+    nx, ny, nz = source.shape
+    radius = weights.size - 1
+    for i in prange(nx):
+        padded = np.empty(nz + 2 * radius, np.float64)
+        line = np.empty(nz, np.float64)
+        for j in range(ny):
+            for k in range(nz + 2 * radius):
+                padded[k] = np.float64(source[i, j, min(max(k - radius, 0), nz - 1)])
+            for k in range(nz):
+                line[k] = padded[k + radius] * weights[0]
+            for tap in range(radius, 0, -1):
+                w = weights[tap]
+                for k in range(nz):
+                    line[k] += (padded[k + radius - tap] + padded[k + radius + tap]) * w
+            for k in range(nz):
+                out[i, j, k] = np.float32(line[k])
