@@ -200,10 +200,7 @@ def geodesic_importance(boundary, a, b, cap):
 
     rho = np.where(source == target, 0.0, cap).astype(np.float32)
     expanded = np.zeros(len(key), np.int32)
-    # Pairs in different components of M (e.g. the object and the box's frame
-    # in the background stage) would search the whole cap ellipse in vain.
-    connected = ~disconnected_pairs(boundary, nodes[source], nodes[target])
-    run = np.flatnonzero((source != target) & (lower < np.float32(cap)) & connected)
+    run = np.flatnonzero((source != target) & (lower < np.float32(cap)))
     if len(run):
         # Searches stay in a small region: ids numbered block by block keep
         # each search's nodes close in memory. Results do not depend on ids.
@@ -214,15 +211,45 @@ def geodesic_importance(boundary, a, b, cap):
         coords = coords[order]
         indptr, indices, steps = _graph(boundary, coords)
         sources, targets = rank[source[run]], rank[target[run]]
+        # Pairs in different components of M (e.g. the object and the box's frame
+        # in the background stage) would search the whole cap ellipse in vain.
+        component = _components(indptr, indices)
+        joined = component[sources] == component[targets]
+        run, sources, targets = run[joined], sources[joined], targets[joined]
         by_source = np.argsort(sources, kind="stable")
         sources, targets = sources[by_source], targets[by_source]
         queries_of = np.searchsorted(sources, np.arange(len(nodes) + 1)).astype(np.int32)
         rho_run, expanded_run = astar(
             indptr, indices, steps, coords, sources, targets, np.float32(cap), hops_for(cap), queries_of,
-            min(numba.get_num_threads(), len(run))
+            max(min(numba.get_num_threads(), len(run)), 1)
         )
         rho[run[by_source]], expanded[run[by_source]] = rho_run, expanded_run
     return rho[inverse], expanded[inverse]
+
+
+@njit()
+def _components(indptr, indices):
+    """Connected components of a graph in CSR form: a label per node (the smallest node of its
+    component), one breadth-first sweep."""
+    n = len(indptr) - 1
+    label = np.full(n, -1, dtype=np.int32)
+    queue = np.empty(n, dtype=np.int32)
+    for start in range(n):
+        if label[start] >= 0:
+            continue
+        label[start] = start
+        queue[0] = start
+        head, tail = 0, 1
+        while head < tail:
+            u = queue[head]
+            head += 1
+            for e in range(indptr[u], indptr[u + 1]):
+                v = indices[e]
+                if label[v] < 0:
+                    label[v] = start
+                    queue[tail] = v
+                    tail += 1
+    return label
 
 
 def _graph(boundary, coords):
