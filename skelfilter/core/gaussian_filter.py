@@ -25,7 +25,7 @@ def gaussian_weights(sigma, truncate=4.0):
     return np.ascontiguousarray(phi[radius:], dtype=np.float64)
 
 
-def gaussian_filter(field, sigma, truncate=4.0):
+def gaussian_filter(field, sigma, truncate=4.0, out=None, scratch=None):
     """``scipy.ndimage.gaussian_filter(field, sigma, mode="nearest", truncate=truncate)`` of a float32
     3D array, the same bits, in parallel.
 
@@ -35,10 +35,14 @@ def gaussian_filter(field, sigma, truncate=4.0):
     sigma : float or sequence of 3 floats
         Standard deviation along each axis, in voxels; an axis with sigma 0 is not filtered.
     truncate : float
+    out, scratch : float32 ndarray, optional
+        Arrays of ``field``'s shape to write the result to and to hold the passes between axes, so
+        that repeated filtering reuses its memory (neither may be ``field``).
 
     Returns
     -------
     float32 ndarray
+        ``out`` where given.
 
     Examples
     --------
@@ -52,17 +56,24 @@ def gaussian_filter(field, sigma, truncate=4.0):
     if field.ndim != 3:
         raise ValueError(f"a 3D grid is filtered, got {field.ndim} dimensions")
     sigmas = np.broadcast_to(np.asarray(sigma, dtype=float), (3,))
-    out = field
-    for axis in range(3):
-        if sigmas[axis] <= 1e-15:  # scipy skips such an axis
-            continue
+    axes = [axis for axis in range(3) if sigmas[axis] > 1e-15]  # scipy skips an axis of sigma 0
+    out = np.empty_like(field) if out is None else out
+    if not axes:
+        out[...] = field
+        return out
+    if len(axes) > 1 and scratch is None:
+        scratch = np.empty_like(field)
+    # The passes alternate between the two arrays so that the last one lands in ``out``.
+    source = field
+    for n, axis in enumerate(axes):
+        target = out if (len(axes) - n) % 2 == 1 else scratch
         weights = gaussian_weights(sigmas[axis], truncate)
-        source, out = out, np.empty_like(field)
         if axis == 2:
-            _last_axis(source, weights, out)
+            _last_axis(source, weights, target)
         else:
-            _across(source, weights, axis, out)
-    return out.copy() if out is field else out
+            _across(source, weights, axis, target)
+        source = target
+    return out
 
 
 @njit(parallel=True)

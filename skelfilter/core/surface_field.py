@@ -198,10 +198,15 @@ def smooth_constrained(field, inside, fixed=None, spacing=(1.0, 1.0, 1.0), round
     spacing = np.asarray(spacing, dtype=float)
     sigma = axis_sigmas(spacing)
     current = original.copy()
+    # Three arrays for the filter's passes, reused every round (fresh memory costs more than the filter).
+    once, twice, scratch = (np.empty_like(current) for _ in range(3))
     for _ in range(rounds):
-        once = gaussian_filter(current, sigma)  # scipy's, mode "nearest", over the cores
-        current = 2 * once - gaussian_filter(once, sigma)
+        gaussian_filter(current, sigma, out=once, scratch=scratch)  # scipy's, mode "nearest", over the cores
+        gaussian_filter(once, sigma, out=twice, scratch=scratch)
+        np.multiply(once, 2, out=current)
+        current -= twice
         _constrain(current, inside, original, fixed, spacing)
+    del once, twice, scratch
     if match_volume:
         current += match_voxel_volume(current, inside, spacing, fixed)
         _constrain(current, inside, original, fixed, spacing)

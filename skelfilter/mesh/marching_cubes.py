@@ -89,7 +89,7 @@ def smooth_field_to_mesh(field, mask, grid, fixed=None):
     if fixed is not None:
         held.reshape(-1)[fixed] = True
     # Only the surface the fixed values do not give needs smoothing: its box, widened by the smoothing's reach.
-    box = bounding_box((np.abs(field) < 1.5) & ~held, margin=SMOOTHING_REACH)
+    box = bounding_box((field < 1.5) & (field > -1.5) & ~held, margin=SMOOTHING_REACH)
     if box is not None:
         field = field.copy()
         field[box] = smooth_constrained(field[box], mask[box], held[box], match_volume=False)
