@@ -1,10 +1,13 @@
 """Many files: ``skelfilter batch`` on a local Dask cluster against one file after another in one process.
 
-    python benchmarks/batch.py [--files 40] [--resolution 128] [--workers N]
+    python benchmarks/batch.py [--files 40] [--resolution 128] [--workers 1 2 4]
 
 Makes ``--files`` noisy meshes (the embedded fandisk with the thesis' stripes, one seed each), then
 denoises them (1) one after another in this process, numba on every core, and (2) with
-`skelfilter.jobs.batch.denoise_many` on a LocalCluster; prints both wall times and the speed-up.
+`skelfilter.jobs.batch.denoise_many` on a LocalCluster of each ``--workers`` count in turn (default:
+the machine's cores); prints the wall times, files per minute and the speed-up of each. A worker is
+one process; numba's threads in each share the cores, so more workers than cores shows what the
+cluster's overhead costs, not what more machines would give.
 """
 
 import argparse
@@ -27,7 +30,8 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--files", type=int, default=40)
     parser.add_argument("--resolution", type=int, default=128)
-    parser.add_argument("--workers", type=int, default=None)
+    parser.add_argument("--workers", type=int, nargs="+", default=[None],
+                        help="worker processes of each cluster timed (default: one per core)")
     args = parser.parse_args()
     clean = io.load_mesh(sample_path())
     with tempfile.TemporaryDirectory() as work:
@@ -41,15 +45,18 @@ def main():
         for name in sorted(os.listdir(inputs)):
             files.denoise_file(os.path.join(inputs, name), os.path.join(work, "serial-" + name), params)
         serial = time.perf_counter() - start
-        start = time.perf_counter()
-        rows = batch.denoise_many([inputs], os.path.join(work, "batch"), workers=args.workers,
-                                  resolution=args.resolution)
-        parallel = time.perf_counter() - start
-    failed = sum(row["status"] != "ok" for row in rows)
-    cores = os.cpu_count()
-    print(f"{args.files} meshes at resolution {args.resolution} on {cores} cores: one after another "
-          f"{serial:.1f} s, batch on a local cluster ({args.workers or cores} workers) {parallel:.1f} s "
-          f"(cluster start included), speed-up {serial / parallel:.2f}x; {failed} failed")
+        timed = []
+        for workers in args.workers:
+            start = time.perf_counter()
+            rows = batch.denoise_many([inputs], os.path.join(work, f"batch-{workers}"), workers=workers,
+                                      resolution=args.resolution)
+            timed.append((workers or os.cpu_count(), time.perf_counter() - start,
+                          sum(row["status"] != "ok" for row in rows)))
+    print(f"{args.files} meshes at resolution {args.resolution} on {os.cpu_count()} cores: one after another "
+          f"{serial:.1f} s ({60 * args.files / serial:.1f} files per minute)")
+    for workers, seconds, failed in timed:
+        print(f"  batch on a local cluster of {workers} workers: {seconds:.1f} s (cluster start included), "
+              f"{60 * args.files / seconds:.1f} files per minute, speed-up {serial / seconds:.2f}x; {failed} failed")
 
 
 if __name__ == "__main__":
