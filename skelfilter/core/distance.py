@@ -82,8 +82,9 @@ def distance_transform(volume):
     if volume.all():
         raise ValueError("the set fills the whole volume: no background to measure distances to")
     squared = np.empty(volume.shape, dtype=np.int32)
-    distance = np.empty(volume.shape, dtype=np.float32)
     _first_axis_squared(volume, squared)
+    # The last pass reads a whole line before it writes that line's distances: they take its place.
+    distance = squared.view(np.float32)
     _other_axes_squared(squared, distance)
     return distance
 

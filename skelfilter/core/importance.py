@@ -134,8 +134,8 @@ def geodesic_importance(boundary, a, b, cap):
     result equals Dijkstra's. The search reads the larger of ``h`` and the
     landmarks' bound ``max_L |g(L, b) - g(L, u)|`` (`geodesic_landmarks`: the
     boundary's geodesics go around the shape, 1.6 times ``h`` at the median on
-    noisy fandisk), also consistent, which settles 2.6 times fewer nodes there. A search stops once the smallest ``g + h`` left
-    open reaches ``cap``, so it only settles voxels ``u`` of M with
+    noisy fandisk), also consistent, which settles 2.6 times fewer nodes there.
+    A search stops once the smallest ``g + h`` left open reaches ``cap``, so it only settles voxels ``u`` of M with
     ``|a - u| + |u - b| < cap``. Searches run to ``cap + 2 k √3`` (and a
     little), ``k`` one edge, or two from a cap of 32 (``geodesic_search.hops_for``):
     one that finds no path proves, by the triangle inequality, every pair

@@ -133,7 +133,7 @@ def _mark_surface_cells(x, cell, held):
                         held[ci, j // cell, k // cell] = True
 
 
-def prominent_peaks(height, least_dynamic):
+def prominent_peaks(height, least_dynamic, overwrite=False):
     """The tops of the peaks of ``height`` (> 0; 0 is the floor) that rise at least ``least_dynamic``
     above the highest saddle joining them to a higher peak (their *dynamic*), 26-connected.
 
@@ -141,6 +141,9 @@ def prominent_peaks(height, least_dynamic):
     meet at a voxel of height v, the lower one ends with dynamic = its top - v (the younger, on equal
     tops); a peak that meets none ends on the floor, with dynamic = its top. A plateau, or a ridge
     whose voxel-sized wiggles rise less than ``least_dynamic``, is one peak. n log n (the sort).
+
+    ``overwrite``: ``height`` (float32, C-contiguous) may be overwritten, its memory holding the
+    voxels' ranks (a whole grid less: what sets the pipeline's peak memory).
 
     Returns
     -------
@@ -160,17 +163,23 @@ def prominent_peaks(height, least_dynamic):
     >>> [int(t[2]) for t in tops], [float(x) for x in heights]
     ([5, 3], [3.0, 5.0])
     """
+    given = height
     height = np.ascontiguousarray(height, dtype=np.float32)
     flat = height.ravel()
     voxels = np.flatnonzero(flat > 0)
     order = voxels[np.argsort(-flat[voxels], kind="stable")]
+    heights = flat[order]
     index = np.int32 if len(order) <= np.iinfo(np.int32).max else np.int64
-    rank = np.full(flat.size, -1, dtype=index)
+    if overwrite and height is given and index is np.int32:
+        rank = flat.view(np.int32)
+        rank.fill(-1)
+    else:
+        rank = np.full(flat.size, -1, dtype=index)
     rank[order] = np.arange(len(order), dtype=index)
     ends = np.empty(len(order), dtype=index)
-    count = _sweep(height.shape, order, flat[order], rank, np.float32(least_dynamic), ends)
+    count = _sweep(height.shape, order, heights, rank, np.float32(least_dynamic), ends)
     tops = order[ends[:count]]
-    return np.column_stack(np.unravel_index(tops, height.shape)), flat[tops]
+    return np.column_stack(np.unravel_index(tops, height.shape)), heights[ends[:count]]
 
 
 @njit()
@@ -254,7 +263,8 @@ def estimate_noise(stage_set, pruned, resolution, side="bumps"):
     box, height = height_above(removed, pruned, highest + 1)
     if box is None or surface == 0:
         return NoiseEstimate(side, False, 0.0, 0.0, 0)
-    tops, heights = prominent_peaks(height, LEAST_DYNAMIC)
+    tops, heights = prominent_peaks(height, LEAST_DYNAMIC, overwrite=True)
+    del height
     noise = (heights >= LEAST_PEAK) & (heights <= highest)
     tops, heights = tops[noise], heights[noise]
     coverage = len(_cells(tops, box, cell)) / surface

@@ -198,15 +198,15 @@ def smooth_constrained(field, inside, fixed=None, spacing=(1.0, 1.0, 1.0), round
     spacing = np.asarray(spacing, dtype=float)
     sigma = axis_sigmas(spacing)
     current = original.copy()
-    # Three arrays for the filter's passes, reused every round (fresh memory costs more than the filter).
-    once, twice, scratch = (np.empty_like(current) for _ in range(3))
+    # Two arrays for the filter's passes, reused every round (fresh memory costs more than the filter).
+    once, scratch = np.empty_like(current), np.empty_like(current)
     for _ in range(rounds):
         gaussian_filter(current, sigma, out=once, scratch=scratch)  # scipy's, mode "nearest", over the cores
-        gaussian_filter(once, sigma, out=twice, scratch=scratch)
-        np.multiply(once, 2, out=current)
-        current -= twice
+        gaussian_filter(once, sigma, out=current, scratch=scratch)
+        np.multiply(once, 2, out=scratch)
+        np.subtract(scratch, current, out=current)  # 2 G f - G G f
         _constrain(current, inside, original, fixed, spacing)
-    del once, twice, scratch
+    del once, scratch
     if match_volume:
         current += match_voxel_volume(current, inside, spacing, fixed)
         _constrain(current, inside, original, fixed, spacing)
