@@ -13,7 +13,7 @@ import trimesh
 from skelfilter.core import pipeline, volume_fine_pass
 from skelfilter.core.gaussian_filter import gaussian_filter
 from skelfilter.core.spacing import signed_distance
-from skelfilter.core.surface_field import match_voxel_volume, smooth_constrained
+from skelfilter.core.surface_field import match_voxel_volume, smooth_constrained, unchanged_band
 from skelfilter.mesh.marching_cubes import mask_to_world_mesh
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
@@ -24,6 +24,21 @@ def _blob(shape, seed):
     from scipy import ndimage
 
     return ndimage.gaussian_filter(np.random.default_rng(seed).standard_normal(shape), 2.0) > 0.05
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_unchanged_band_is_the_band_less_the_dilated_changes(seed):
+    from scipy import ndimage
+
+    rng = np.random.default_rng(seed)
+    shape = tuple(rng.integers(3, 24, 3))
+    field = rng.normal(0, 2, shape).astype(np.float32)
+    mask = rng.random(shape) < 0.5
+    occupancy = mask ^ (rng.random(shape) < 0.02 * (seed + 1))
+    for reach in (1, 2, 3):
+        near = ndimage.binary_dilation(mask != occupancy, iterations=reach)
+        expected = np.flatnonzero((np.abs(field) < 1.5) & ~near)
+        assert np.array_equal(unchanged_band(field, mask, occupancy, reach), expected)
 
 
 @pytest.mark.parametrize("sigma", [0.8, (0.8, 0.46, 0.8), (1.3, 0.0, 0.5), 2.0])

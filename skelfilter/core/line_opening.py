@@ -8,6 +8,7 @@ the segment in any direction, goes. Along each direction the opening is the runs
 """
 
 import numpy as np
+from numba import prange
 
 from skelfilter.core.neighbourhood import OFFSETS_26
 from skelfilter.runtime.compiled import njit
@@ -63,12 +64,15 @@ def line_opening(volume, length, directions=DIRECTIONS):
     return out
 
 
-@njit()
+@njit(parallel=True)
 def _long_runs(volume, out, dx, dy, dz, length):
     """Mark in ``out`` the voxels of runs of ``volume`` along (dx, dy, dz) at least ``length`` long:
-    each run is walked from its first voxel (the one whose predecessor is unset or off the grid)."""
+    each run is walked from its first voxel (the one whose predecessor is unset or off the grid). The
+    runs along one direction are disjoint, so the planes their first voxels lie in are shared among
+    the threads: no voxel is written by two."""
     nx, ny, nz = volume.shape
-    for x in range(nx):
+    for plane in prange(nx):
+        x = np.int64(plane)  # prange's index may be unsigned: the steps back need a signed one
         for y in range(ny):
             for z in range(nz):
                 if not volume[x, y, z]:

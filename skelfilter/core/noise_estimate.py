@@ -93,7 +93,8 @@ def height_above(part, base, reach):
     if far.all():  # no base in reach: every voxel is far
         return box, np.where(part[box], np.float32(reach), np.float32(0))
     height = distance_transform(far)
-    height[~part[box]] = 0.0
+    del far
+    height *= part[box]  # 0 outside part (distances are >= 0), without a whole-box temporary
     return box, height
 
 
@@ -258,7 +259,7 @@ def estimate_noise(stage_set, pruned, resolution, side="bumps"):
     """
     highest = HIGHEST_NOISE * resolution
     cell = max(2, int(round(CELL * resolution)))
-    removed = stage_set & ~pruned
+    removed = np.greater(stage_set, pruned)  # stage_set & ~pruned, without the temporary
     surface = surface_cells(stage_set, cell)
     box, height = height_above(removed, pruned, highest + 1)
     if box is None or surface == 0:

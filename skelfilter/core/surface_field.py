@@ -3,6 +3,7 @@ input's own distances kept where the denoising changed nothing, and the field sm
 voxels' constraint so that its surface is smooth and still encloses exactly the voxels it is of."""
 
 import numpy as np
+from numba import prange
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
@@ -44,9 +45,34 @@ def axis_sigmas(spacing, sigma=SMOOTHING_SIGMA):
 
 def unchanged_band(field, mask, occupancy, reach):
     """Flat indices of the voxels whose field values shape the 0-level (``|field| < 1.5``) and lie
-    more than ``reach`` voxels (6-connected steps) from any voxel the denoising changed."""
-    near_change = ndimage.binary_dilation(mask != occupancy, iterations=reach)
-    return np.flatnonzero((np.abs(field) < 1.5).reshape(-1) & ~near_change.reshape(-1))
+    more than ``reach`` voxels (6-connected steps) from any voxel the denoising changed.
+
+    Only the band's voxels are looked at, each against the voxels within ``reach`` steps of it (the
+    grid's outside changes nothing): ``reach`` dilations of the changes over the whole grid, less
+    their cost."""
+    band = np.flatnonzero(((field < 1.5) & (field > -1.5)).reshape(-1))
+    span = np.arange(-reach, reach + 1)
+    offsets = np.stack(np.meshgrid(span, span, span, indexing="ij"), axis=-1).reshape(-1, 3)
+    offsets = offsets[np.abs(offsets).sum(axis=1) <= reach]
+    mask = np.ascontiguousarray(mask, dtype=bool)
+    occupancy = np.ascontiguousarray(occupancy, dtype=bool)
+    return band[_far_from_change(mask, occupancy, band, offsets)]
+
+
+@njit(parallel=True)
+def _far_from_change(mask, occupancy, voxels, offsets):
+    """Whether no voxel at the ``offsets`` from each flat index in ``voxels`` differs between the two."""
+    nx, ny, nz = mask.shape
+    far = np.ones(len(voxels), dtype=np.bool_)
+    for n in prange(len(voxels)):
+        v = voxels[n]
+        i, j, k = v // (ny * nz), (v // nz) % ny, v % nz
+        for o in range(len(offsets)):
+            a, b, c = i + offsets[o, 0], j + offsets[o, 1], k + offsets[o, 2]
+            if 0 <= a < nx and 0 <= b < ny and 0 <= c < nz and mask[a, b, c] != occupancy[a, b, c]:
+                far[n] = False
+                break
+    return far
 
 
 def put_distances(field, mask, band, distance):
@@ -137,7 +163,7 @@ def mask_field(mask):
 
 
 def smooth_constrained(field, inside, fixed=None, spacing=(1.0, 1.0, 1.0), rounds=SMOOTHING_ROUNDS,
-                       match_volume=True):
+                       match_volume=True, overwrite=False):
     """The smoothest field near ``field`` whose sign at every voxel centre is ``inside``'s.
 
     A voxel mask is the sampling of a smooth surface: each set voxel's centre lies inside it, each
@@ -165,6 +191,8 @@ def smooth_constrained(field, inside, fixed=None, spacing=(1.0, 1.0, 1.0), round
         A voxel's size along each axis in the field's unit: sets the margin, the Gaussian's sigma along
         each axis (`axis_sigmas`) and the volume a voxel stands for.
     rounds : int
+    overwrite : bool
+        ``field`` (float32, C-contiguous) may be smoothed in place and returned: one grid less.
     match_volume : bool
         Move the surface to its voxels' volume (`match_voxel_volume`): for voxels that sample a smooth
         surface (a label map). Not for the voxels a pruning left, whose removed bumps' stubs the
@@ -194,10 +222,12 @@ def smooth_constrained(field, inside, fixed=None, spacing=(1.0, 1.0, 1.0), round
     True
     """
     inside = np.asarray(inside, dtype=bool)
-    original = np.asarray(field, dtype=np.float32)
+    given = field
+    field = np.ascontiguousarray(field, dtype=np.float32)
+    held = None if fixed is None else field[fixed]
     spacing = np.asarray(spacing, dtype=float)
     sigma = axis_sigmas(spacing)
-    current = original.copy()
+    current = field if overwrite or field is not given else field.copy()  # a converted field is a copy already
     # Two arrays for the filter's passes, reused every round (fresh memory costs more than the filter).
     once, scratch = np.empty_like(current), np.empty_like(current)
     for _ in range(rounds):
@@ -205,22 +235,22 @@ def smooth_constrained(field, inside, fixed=None, spacing=(1.0, 1.0, 1.0), round
         gaussian_filter(once, sigma, out=current, scratch=scratch)
         np.multiply(once, 2, out=scratch)
         np.subtract(scratch, current, out=current)  # 2 G f - G G f
-        _constrain(current, inside, original, fixed, spacing)
+        _constrain(current, inside, held, fixed, spacing)
     del once, scratch
     if match_volume:
         current += match_voxel_volume(current, inside, spacing, fixed)
-        _constrain(current, inside, original, fixed, spacing)
+        _constrain(current, inside, held, fixed, spacing)
     return current
 
 
-def _constrain(field, inside, original, fixed, spacing):
+def _constrain(field, inside, held, fixed, spacing):
     """Every voxel centre back on its side by `CONSTRAINT_MARGIN` voxels at least, ``fixed`` voxels to
-    their ``original`` values; in place."""
+    their ``held`` values; in place."""
     margin = np.float32(CONSTRAINT_MARGIN * spacing.min())
     np.maximum(field, margin, out=field, where=inside)
     np.minimum(field, -margin, out=field, where=~inside)
     if fixed is not None:
-        field[fixed] = original[fixed]
+        field[fixed] = held
 
 
 def match_voxel_volume(field, inside, spacing, fixed=None, scale=VOLUME_MATCH_SCALE):

@@ -91,8 +91,11 @@ def smooth_field_to_mesh(field, mask, grid, fixed=None):
     # Only the surface the fixed values do not give needs smoothing: its box, widened by the smoothing's reach.
     box = bounding_box((field < 1.5) & (field > -1.5) & ~held, margin=SMOOTHING_REACH)
     if box is not None:
+        part = smooth_constrained(np.ascontiguousarray(field[box]), mask[box], held[box], match_volume=False,
+                                  overwrite=True)
         field = field.copy()
-        field[box] = smooth_constrained(field[box], mask[box], held[box], match_volume=False)
+        field[box] = part
+        del part
     return field_to_mesh(field, grid)
 
 
