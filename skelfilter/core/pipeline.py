@@ -142,8 +142,10 @@ def stage_at_noise_scale(stage_set, params, side, progress):
 
     fields = skeleton_fields(stage_set, params, progress)
     stage = pruned_stage(stage_set, fields.copy(), params, progress)
-    estimate = measured(stage)
     size, threshold, cap = np.count_nonzero(stage_set), params.threshold_voxels, pruning_rules.search_cap(params)
+    if np.count_nonzero(stage.mask) >= LEAST_KEPT * size:
+        fields = None  # no finer pruning can follow: the skeleton's arrays go before the noise is measured
+    estimate = measured(stage)
     for divisor in FINER_THRESHOLDS:
         kept = np.count_nonzero(stage.mask)
         if kept >= LEAST_KEPT * size or estimate.found:
