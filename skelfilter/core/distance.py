@@ -47,8 +47,8 @@ def distance_and_features(volume):
         raise ValueError(f"a grid of {volume.size} voxels is too large for int32 feature indices")
     features = np.empty(volume.shape, dtype=np.int32)
     distance = np.empty(volume.shape, dtype=np.float32)
-    _first_axis(volume, features)
-    _other_axes(features, distance)
+    _first_axis(volume, features, True)
+    _other_axes(features, distance, True)
     return distance, features
 
 
@@ -82,10 +82,10 @@ def distance_transform(volume):
     if volume.all():
         raise ValueError("the set fills the whole volume: no background to measure distances to")
     squared = np.empty(volume.shape, dtype=np.int32)
-    _first_axis_squared(volume, squared)
+    _first_axis(volume, squared, False)
     # The last pass reads a whole line before it writes that line's distances: they take its place.
     distance = squared.view(np.float32)
-    _other_axes_squared(squared, distance)
+    _other_axes(squared, distance, False)
     return distance
 
 
@@ -110,8 +110,9 @@ def gradient_at(distance, voxels):
 
 
 @njit(parallel=True)
-def _first_axis(volume, features):
-    """Nearest background voxel along axis 0, ties to the lower index (-1: none on the line)."""
+def _first_axis(volume, out, features):
+    """Nearest background voxel along axis 0, ties to the lower index: its flat index (``features``)
+    or its squared distance (else); -1 where the line has none."""
     nx, ny, nz = volume.shape
     for j in prange(ny):
         # Forward sweep: the last background voxel at or before i ...
@@ -120,17 +121,22 @@ def _first_axis(volume, features):
             for k in range(nz):
                 if not volume[i, j, k]:
                     last[k] = i
-                features[i, j, k] = last[k]
+                out[i, j, k] = last[k]
         # ... backward sweep: the next one at or after i; the nearer wins.
         ahead = np.full(nz, -1, np.int64)
         for i in range(nx - 1, -1, -1):
             for k in range(nz):
                 if not volume[i, j, k]:
                     ahead[k] = i
-                behind = features[i, j, k]
+                behind = out[i, j, k]
                 if behind < 0 or (ahead[k] >= 0 and ahead[k] - i < i - behind):
                     behind = ahead[k]
-                features[i, j, k] = -1 if behind < 0 else (behind * ny + j) * nz + k
+                if behind < 0:
+                    out[i, j, k] = -1
+                elif features:
+                    out[i, j, k] = (behind * ny + j) * nz + k
+                else:
+                    out[i, j, k] = (behind - i) * (behind - i)
 
 
 @njit()
@@ -200,14 +206,32 @@ def _perpendicular(ids, perp, ny, nz, i, j, k, axis):
         perp[q] = (d0 * d0 if axis != 0 else 0) + (d1 * d1 if axis != 1 else 0) + (d2 * d2 if axis != 2 else 0)
 
 
+@njit()
+def _line(values, perp, nearest, d2, sites, out, ny, nz, i, j, k, axis, features):
+    """One line's Voronoi step, in place: ``values`` carry features (flat indices) or squared
+    distances (-1: none); ``d2`` receives the squared distances."""
+    n = values.size
+    if features:
+        _perpendicular(values, perp, ny, nz, i, j, k, axis)
+        _feature_line(values, perp[:n], nearest, out[:n], d2, sites)
+        values[:] = out[:n]
+    else:
+        perp[:n] = values
+        _voronoi_line(perp[:n], nearest[:n], d2, sites)
+        for q in range(n):
+            values[q] = d2[q] if nearest[q] >= 0 else -1
+
+
 @njit(parallel=True)
-def _other_axes(features, distance):
-    """The passes along axes 1 and 2, plane by plane (both stay in one plane of axis 0)."""
+def _other_axes(grid, distance, features):
+    """The passes along axes 1 and 2, plane by plane (both stay in one plane of axis 0), on features
+    or squared distances (`_first_axis`); ``distance`` may be ``grid`` itself seen as float32 (each
+    line is read whole before its distances are written)."""
     B = 16  # lines along axis 1 handled together, so reads and writes use whole cache lines
-    nx, ny, nz = features.shape
+    nx, ny, nz = grid.shape
     n = max(ny, nz)
     for i in prange(nx):
-        ids = np.empty(n, np.int32)
+        line = np.empty(n, np.int32)
         out = np.empty(n, np.int32)
         perp = np.empty(n, np.int64)
         d2 = np.empty(n, np.int64)
@@ -218,73 +242,16 @@ def _other_axes(features, distance):
             nb = min(B, nz - k0)
             for j in range(ny):
                 for b in range(nb):
-                    tile[b, j] = features[i, j, k0 + b]
+                    tile[b, j] = grid[i, j, k0 + b]
             for b in range(nb):
-                line = tile[b]
-                _perpendicular(line, perp, ny, nz, i, 0, k0 + b, 1)
-                _feature_line(line, perp[:ny], nearest, out[:ny], d2, sites)
-                line[:] = out[:ny]
+                _line(tile[b], perp, nearest, d2, sites, out, ny, nz, i, 0, k0 + b, 1, features)
             for j in range(ny):
                 for b in range(nb):
-                    features[i, j, k0 + b] = tile[b, j]
+                    grid[i, j, k0 + b] = tile[b, j]
         for j in range(ny):
-            row = features[i, j]
-            ids[:nz] = row
-            _perpendicular(ids[:nz], perp, ny, nz, i, j, 0, 2)
-            _feature_line(ids[:nz], perp[:nz], nearest, row, d2, sites)
-            for k in range(nz):
-                distance[i, j, k] = math.sqrt(d2[k])
-
-
-@njit(parallel=True)
-def _first_axis_squared(volume, squared):
-    """Squared distance to the nearest background voxel along axis 0 (-1: none on the line)."""
-    nx, ny, nz = volume.shape
-    for j in prange(ny):
-        last = np.full(nz, -1, np.int64)
-        for i in range(nx):
-            for k in range(nz):
-                if not volume[i, j, k]:
-                    last[k] = i
-                squared[i, j, k] = -1 if last[k] < 0 else i - last[k]
-        ahead = np.full(nz, -1, np.int64)
-        for i in range(nx - 1, -1, -1):
-            for k in range(nz):
-                if not volume[i, j, k]:
-                    ahead[k] = i
-                gap = squared[i, j, k]
-                if ahead[k] >= 0 and (gap < 0 or ahead[k] - i < gap):
-                    gap = ahead[k] - i
-                squared[i, j, k] = -1 if gap < 0 else gap * gap
-
-
-@njit(parallel=True)
-def _other_axes_squared(squared, distance):
-    """The passes along axes 1 and 2 on squared distances, plane by plane (as `_other_axes`)."""
-    B = 16
-    nx, ny, nz = squared.shape
-    n = max(ny, nz)
-    for i in prange(nx):
-        perp = np.empty(n, np.int64)
-        d2 = np.empty(n, np.int64)
-        sites = np.empty(n, np.int64)
-        nearest = np.empty(n, np.int64)
-        tile = np.empty((B, ny), np.int64)
-        for k0 in range(0, nz, B):
-            nb = min(B, nz - k0)
-            for j in range(ny):
-                for b in range(nb):
-                    tile[b, j] = squared[i, j, k0 + b]
-            for b in range(nb):
-                _voronoi_line(tile[b], nearest[:ny], d2, sites)
-                for j in range(ny):
-                    tile[b, j] = d2[j] if nearest[j] >= 0 else -1
-            for j in range(ny):
-                for b in range(nb):
-                    squared[i, j, k0 + b] = tile[b, j]
-        for j in range(ny):
-            for k in range(nz):
-                perp[k] = squared[i, j, k]
-            _voronoi_line(perp[:nz], nearest[:nz], d2, sites)
+            line[:nz] = grid[i, j]
+            _line(line[:nz], perp, nearest, d2, sites, out, ny, nz, i, j, 0, 2, features)
+            if features:
+                grid[i, j] = line[:nz]
             for k in range(nz):
                 distance[i, j, k] = math.sqrt(d2[k])
