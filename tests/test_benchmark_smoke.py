@@ -20,6 +20,21 @@ import learned_ball_decision  # noqa: E402
 import noise_coverage  # noqa: E402
 
 
+def test_thread_scaling_prints_every_step_and_its_parallel_share():
+    import thread_scaling
+
+    assert thread_scaling.parallel_share(4.0, 2.0, 2) == 1.0 and thread_scaling.parallel_share(4.0, 4.0, 2) == 0.0
+    assert thread_scaling.parallel_share(4.0, 3.0, 2) == pytest.approx(0.5)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.path.abspath(ROOT), os.environ.get("PYTHONPATH", "")]))
+    done = subprocess.run([sys.executable, os.path.join(ROOT, "benchmarks", "thread_scaling.py"), "--size", "40",
+                           "--threads", "1", "2"], env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    rows = {line[:40].strip(): line[40:].split() for line in done.stdout.splitlines()[2:]}
+    assert {"foreground/importance", "total, mesh file to mesh file"} <= set(rows)
+    for cells in rows.values():
+        assert len(cells) == 5 and cells[2].endswith("%")
+
+
 def test_benchmark_writes_every_figure(tmp_path):
     out = tmp_path / "bench.json"
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.path.abspath(ROOT), os.environ.get("PYTHONPATH", "")]))
