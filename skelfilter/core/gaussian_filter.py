@@ -1,13 +1,16 @@
-"""scipy's Gaussian filter of a float32 grid (``mode="nearest"``), over the cores.
+"""scipy's Gaussian filter of a float32 grid (``mode`` "nearest" or "reflect"), over the cores.
 
 ``scipy.ndimage.gaussian_filter`` runs in one thread; the surface's smoothing
 (`skelfilter.core.surface_field.smooth_constrained`) filters the whole box of a
-256³ grid six times, a tenth of a denoising. This is the same filter, line by
-line as scipy's ``NI_Correlate1D`` computes it, so the result is the same
-float32 bit for bit: each axis in turn (0, 1, 2), the line read as float64,
-``w_0 x_i + Σ_{k = r..1} w_k (x_{i-k} + x_{i+k})`` summed in that order in
-float64 (scipy's sum for a symmetric kernel), the edge value repeated past the
-ends, each axis' result rounded to float32.
+256³ grid six times, a tenth of a denoising, and the volume fine pass
+(`skelfilter.core.volume_fine_pass`) a few times per level. This is the same
+filter, line by line as scipy's ``NI_Correlate1D`` computes it, so the result
+is the same float32 bit for bit: each axis in turn (0, 1, 2), the line read as
+float64, ``w_0 x_i + Σ_{k = r..1} w_k (x_{i-k} + x_{i+k})`` summed in that
+order in float64 (scipy's sum for a symmetric kernel), each axis' result
+rounded to float32. Past its ends the line goes on as scipy extends it: mirrored
+about its end, again and again ("reflect", scipy's default: ``dcba|abcd|dcba``),
+or its edge value repeated ("nearest").
 """
 
 import numpy as np
@@ -25,15 +28,20 @@ def gaussian_weights(sigma, truncate=4.0):
     return np.ascontiguousarray(phi[radius:], dtype=np.float64)
 
 
-def gaussian_filter(field, sigma, truncate=4.0, out=None, scratch=None):
-    """``scipy.ndimage.gaussian_filter(field, sigma, mode="nearest", truncate=truncate)`` of a float32
-    3D array, the same bits, in parallel.
+MODES = ("reflect", "nearest")
+
+
+def gaussian_filter(field, sigma, mode="reflect", truncate=4.0, out=None, scratch=None):
+    """``scipy.ndimage.gaussian_filter(field, sigma, mode=mode, truncate=truncate)`` of a float32 3D
+    array, the same bits, in parallel.
 
     Parameters
     ----------
     field : (nx, ny, nz) float32 ndarray
     sigma : float or sequence of 3 floats
         Standard deviation along each axis, in voxels; an axis with sigma 0 is not filtered.
+    mode : {"reflect", "nearest"}
+        scipy's default, "reflect", or "nearest".
     truncate : float
     out, scratch : float32 ndarray, optional
         Arrays of ``field``'s shape to write the result to and to hold the passes between axes, so
@@ -49,9 +57,14 @@ def gaussian_filter(field, sigma, truncate=4.0, out=None, scratch=None):
     >>> import numpy as np
     >>> from scipy import ndimage
     >>> f = np.random.default_rng(0).random((9, 10, 11)).astype(np.float32)
-    >>> bool((gaussian_filter(f, 0.8) == ndimage.gaussian_filter(f, 0.8, mode="nearest")).all())
+    >>> bool((gaussian_filter(f, 0.8) == ndimage.gaussian_filter(f, 0.8)).all())
+    True
+    >>> bool((gaussian_filter(f, 0.8, "nearest") == ndimage.gaussian_filter(f, 0.8, mode="nearest")).all())
     True
     """
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
+    reflect = mode == "reflect"
     field = np.ascontiguousarray(field, dtype=np.float32)
     if field.ndim != 3:
         raise ValueError(f"a 3D grid is filtered, got {field.ndim} dimensions")
@@ -69,15 +82,26 @@ def gaussian_filter(field, sigma, truncate=4.0, out=None, scratch=None):
         target = out if (len(axes) - n) % 2 == 1 else scratch
         weights = gaussian_weights(sigmas[axis], truncate)
         if axis == 2:
-            _last_axis(source, weights, target)
+            _last_axis(source, weights, reflect, target)
         else:
-            _across(source, weights, axis, target)
+            _across(source, weights, axis, reflect, target)
         source = target
     return out
 
 
+@njit(inline="always")
+def _extended(i, n, reflect):
+    """The index of the line's element that stands at ``i`` once the line is extended past its ends."""
+    if 0 <= i < n:
+        return i
+    if not reflect:
+        return min(max(i, 0), n - 1)
+    i %= 2 * n
+    return i if i < n else 2 * n - 1 - i
+
+
 @njit(parallel=True)
-def _across(source, weights, axis, out):
+def _across(source, weights, axis, reflect, out):
     """Axis 0 or 1: the taps are whole rows along axis 2, read in order."""
     nx, ny, nz = source.shape
     radius = weights.size - 1
@@ -89,8 +113,8 @@ def _across(source, weights, axis, out):
             for k in range(nz):
                 line[k] = np.float64(source[i, j, k]) * weights[0]
             for tap in range(radius, 0, -1):
-                lo = max(at - tap, 0)
-                hi = min(at + tap, n - 1)
+                lo = _extended(at - tap, n, reflect)
+                hi = _extended(at + tap, n, reflect)
                 w = weights[tap]
                 if axis == 0:
                     for k in range(nz):
@@ -103,8 +127,8 @@ def _across(source, weights, axis, out):
 
 
 @njit(parallel=True)
-def _last_axis(source, weights, out):
-    """Axis 2: each line copied once, its ends repeated, so that the taps run over whole rows too."""
+def _last_axis(source, weights, reflect, out):
+    """Axis 2: each line copied once, extended past its ends, so that the taps run over whole rows too."""
     nx, ny, nz = source.shape
     radius = weights.size - 1
     for i in prange(nx):
@@ -112,7 +136,7 @@ def _last_axis(source, weights, out):
         line = np.empty(nz, np.float64)
         for j in range(ny):
             for k in range(nz + 2 * radius):
-                padded[k] = np.float64(source[i, j, min(max(k - radius, 0), nz - 1)])
+                padded[k] = np.float64(source[i, j, _extended(k - radius, nz, reflect)])
             for k in range(nz):
                 line[k] = padded[k + radius] * weights[0]
             for tap in range(radius, 0, -1):

@@ -231,8 +231,8 @@ def smooth_constrained(field, inside, fixed=None, spacing=(1.0, 1.0, 1.0), round
     # Two arrays for the filter's passes, reused every round (fresh memory costs more than the filter).
     once, scratch = np.empty_like(current), np.empty_like(current)
     for _ in range(rounds):
-        gaussian_filter(current, sigma, out=once, scratch=scratch)  # scipy's, mode "nearest", over the cores
-        gaussian_filter(once, sigma, out=current, scratch=scratch)
+        gaussian_filter(current, sigma, "nearest", out=once, scratch=scratch)  # scipy's, over the cores
+        gaussian_filter(once, sigma, "nearest", out=current, scratch=scratch)
         np.multiply(once, 2, out=scratch)
         np.subtract(scratch, current, out=current)  # 2 G f - G G f
         _constrain(current, inside, held, fixed, spacing)

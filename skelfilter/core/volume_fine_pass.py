@@ -28,6 +28,7 @@ import numpy as np
 from scipy import ndimage
 
 from skelfilter.core import edt_filters, feature_restore
+from skelfilter.core.gaussian_filter import gaussian_filter  # scipy's (mode reflect), over the cores
 from skelfilter.core.neighbourhood import bounding_box
 
 LEVELS = (2.0, 1.5, 1.0, 0.6)  # voxels: the Gaussians' sigmas, widest first
@@ -115,14 +116,14 @@ class VoxelRoughness:
 
 def smoothed(mask, sigma):
     """The mask's Gaussian of ``sigma`` voxels, thresholded at one half."""
-    return ndimage.gaussian_filter(mask.astype(np.float32), sigma) > 0.5
+    return gaussian_filter(mask.astype(np.float32), sigma) > 0.5
 
 
 def smoothed_shrink_free(mask, sigma):
     """The mask's twiced Gaussian (``2 G m - G G m``) of ``sigma`` voxels, thresholded at one half: a
     light smoothing that does not erode thin parts."""
-    once = ndimage.gaussian_filter(mask.astype(np.float32), sigma)
-    return 2 * once - ndimage.gaussian_filter(once, sigma) > 0.5
+    once = gaussian_filter(mask.astype(np.float32), sigma)
+    return 2 * once - gaussian_filter(once, sigma) > 0.5
 
 
 def smoothed_volume_kept(mask, sigma):
@@ -136,12 +137,12 @@ def smoothed_volume_kept(mask, sigma):
     most a voxel; the result is ``s > 1/2 - d |grad s|`` (the threshold moved by the surface's move
     times the field's slope there)."""
     values = mask.astype(np.float32)
-    once = ndimage.gaussian_filter(values, sigma)
-    smooth = 2 * once - ndimage.gaussian_filter(once, sigma)
+    once = gaussian_filter(values, sigma)
+    smooth = 2 * once - gaussian_filter(once, sigma)
     out = smooth > 0.5
     reach = VOLUME_REACH * sigma
-    missing = ndimage.gaussian_filter(values - out, reach)
-    surface = ndimage.gaussian_filter(_boundary(out).astype(np.float32), reach) / 2
+    missing = gaussian_filter(values - out, reach)
+    surface = gaussian_filter(_boundary(out).astype(np.float32), reach) / 2
     move = np.divide(missing, surface, out=np.zeros_like(missing), where=surface > 1e-3)
     slope = np.sqrt(sum(g * g for g in np.gradient(smooth)))
     return smooth > 0.5 - np.clip(move, -1.0, 1.0) * slope
