@@ -20,6 +20,26 @@ import learned_ball_decision  # noqa: E402
 import noise_coverage  # noqa: E402
 
 
+def test_same_outputs_saves_a_corpus_and_names_what_differs(tmp_path, capsys):
+    import same_outputs
+
+    saved = tmp_path / "before.npz"
+    same_outputs.save(str(saved), ["volumes"])
+    arrays = dict(np.load(saved))
+    assert {"volumes/volume-fandisk/mask", "volumes/volume-fandisk/field", "volumes/label-map/1.v"} <= set(arrays)
+    assert same_outputs.main(["compare", str(saved), str(saved)]) == 0
+    arrays["volumes/volume-fandisk/field"] = arrays["volumes/volume-fandisk/field"].copy()
+    arrays["volumes/volume-fandisk/field"].flat[0] += 1e-3
+    del arrays["volumes/label-map/1.v"]
+    changed = tmp_path / "after.npz"
+    np.savez(changed, **arrays)
+    differ = same_outputs.compare(str(saved), str(changed))
+    assert len(differ) == 2
+    assert differ[0].startswith("volumes/label-map/1.v: only in") and "1 of" in differ[1]
+    assert same_outputs.main(["compare", str(saved), str(changed)]) == 1
+    assert "2 arrays differ" in capsys.readouterr().out
+
+
 def test_thread_scaling_prints_every_step_and_its_parallel_share():
     import thread_scaling
 
