@@ -59,17 +59,8 @@ def distance_transform(volume):
     The same three passes carry squared distances instead of feature indices, so the passes across
     the first axis read a number per voxel instead of working one out from a flat index, and the
     transform moves half the bytes. For the morphology of the later steps (closings, heights above a
-    shape), which read no feature point.
-
-    Parameters
-    ----------
-    volume : (nx, ny, nz) bool ndarray
-        The set X. It must leave at least one background voxel.
-
-    Returns
-    -------
-    distance : float32 ndarray
-        ``D(x) = min {|x - y| : y not in X}``; 0 on the background.
+    shape), which read no feature point. ``volume`` as for `distance_and_features`; returns ``D``
+    (float32, 0 on the background).
 
     Examples
     --------

@@ -135,10 +135,11 @@ def geodesic_importance(boundary, a, b, cap):
     landmarks' bound ``max_L |g(L, b) - g(L, u)|`` (`geodesic_landmarks`: the
     boundary's geodesics go around the shape, 1.6 times ``h`` at the median on
     noisy fandisk), also consistent, which settles 2.6 times fewer nodes there.
-    A search stops once the smallest ``g + h`` left open reaches ``cap``, so it only settles voxels ``u`` of M with
-    ``|a - u| + |u - b| < cap``. Searches run to ``cap + 2 k √3`` (and a
-    little), ``k`` one edge, or two from a cap of 32 (``geodesic_search.hops_for``):
-    one that finds no path proves, by the triangle inequality, every pair
+    A search stops once the smallest ``g`` plus that bound left open reaches
+    ``cap``, so it only settles voxels ``u`` of M with ``|a - u| + |u - b| < cap``.
+    Searches run to ``cap + 2 k √3`` (and a little), ``k`` one edge, or two
+    from a cap of 32 (``geodesic_search.hops_for``): one that finds no path
+    proves, by the triangle inequality, every pair
     ``{a2, b2}`` with ``a2`` at most ``k`` edges from ``a`` and ``b2`` from
     ``b`` longer than ``cap``, and those pairs are not searched (neighbouring
     skeleton voxels have neighbouring feature points; on noisy fandisk at 256
