@@ -247,5 +247,7 @@ def noise_correlation(vertices, faces):
     variance = float(np.mean(offset**2))
     if not variance > 0:
         return 0.0
-    edges = np.unique(np.sort(face_edges(faces), axis=1), axis=0)
-    return float(np.mean(offset[edges[:, 0]] * offset[edges[:, 1]]) / variance)
+    # each edge once, as one integer: a 1-D sort, where unique rows sort a structured view ten times slower
+    edges = np.sort(face_edges(faces), axis=1)
+    tail, head = np.divmod(np.unique(edges[:, 0] * len(vertices) + edges[:, 1]), len(vertices))
+    return float(np.mean(offset[tail] * offset[head]) / variance)
