@@ -78,8 +78,10 @@ RIVAL_NICENESS = 10
 CLEAN_PASS_PADDING = 8  # voxels around a clean shape on the grid of the clean pass
 # Bump when the noisy meshes or the scores change meaning: cached ones are then made again.
 NOISY_VERSION = 1
-SCORE_VERSION = 3
+SCORE_VERSION = 4
 THIN_RADIUS = 4.0  # voxels: the ball whose opening finds the clean shape's thin parts (`metrics.thin_parts`)
+# voxels: bumps left are also counted on parts at most this thin, at least this thick (`metrics.thickness_under`)
+THIN_PART, THICK_PART = 3, 13
 SHEET_DENTS = ("fandisk", "block", "bunny")  # shapes whose bumps-dents case joins the picture sheet
 SHEET_CELL = (420, 340)  # pixels of one rendered picture
 
@@ -142,6 +144,8 @@ class Prepared:
     grid: Grid
     facts: dict
     thin: np.ndarray = None  # the clean voxels an opening by a radius-THIN_RADIUS ball removes
+    bump_classes: dict = None  # "thin", "thick", "over_2h" -> the bump voxels standing on such parts
+    concave: np.ndarray = None  # the clean shape's concavities deeper than the noise (`metrics.concavities`)
 
 
 def _digest(*parts):
@@ -197,7 +201,11 @@ def score(mesh, prep):
     sub-voxel tunnels that V does not see. ``thin_kept``: the share of the clean shape's thin parts
     (`skelfilter.evaluation.metrics.thin_parts`, radius `THIN_RADIUS`: plates, rods, rims and edge voxels) in V;
     ``error_ratio``: |V xor clean| over the noisy input's |noisy xor clean| (below 1: better than
-    doing nothing).
+    doing nothing). ``bumps_left_thin`` / ``_thick`` / ``_over_2h``: bumps left among those standing on
+    parts of the clean shape at most `THIN_PART` voxels thick, at least `THICK_PART`, thicker than twice
+    the kind's noise height (`skelfilter.evaluation.metrics.thickness_under`; NaN without such bumps);
+    ``concavity_filled``: the share of the clean shape's concavities deeper than the noise height
+    (`skelfilter.evaluation.metrics.concavities`: inside its convex hull) that V fills.
 
     Returns
     -------
@@ -221,6 +229,9 @@ def score(mesh, prep):
         "dents_left": _share(left_dents, n_dents),
         "clean_lost": _share(np.count_nonzero(noise.clean & ~noise.dents & ~volume), n_clean),
         "new_material": _share(np.count_nonzero(volume & ~noise.clean & ~noise.bumps), n_clean),
+        **{f"bumps_left_{name}": _share(np.count_nonzero(part & volume), np.count_nonzero(part))
+           for name, part in prep.bump_classes.items()},
+        "concavity_filled": metrics.concavity_filled(volume, prep.concave),
         "thin_kept": metrics.thin_parts_kept(volume, prep.thin),
         "error_ratio": _share(np.count_nonzero(volume ^ noise.clean), noisy_error),
         "chamfer": chamfer,
@@ -289,9 +300,13 @@ def load_case(case, setup):
                                for k in ("clean", "bumps", "dents"))
         sites = z["sites"]
     noise = NoiseResult(clean=clean, noisy=(clean | bumps) & ~dents, bumps=bumps, dents=dents, sites=sites)
+    height = NOISE_KINDS[case.kind]["h"]
+    bump_classes = {"thin": bumps & ~metrics.thickness_under(bumps, clean, THIN_PART),
+                    "thick": metrics.thickness_under(bumps, clean, THICK_PART - 1),
+                    "over_2h": metrics.thickness_under(bumps, clean, 2 * height)}
     return Prepared(shapes.load(case.shape), mesh_files.load_mesh(stem + "-marching.ply"),
                     mesh_files.load_mesh(stem + "-decimated.ply"), noise, grid, _read_json(stem + ".json"),
-                    metrics.thin_parts(clean, THIN_RADIUS))
+                    metrics.thin_parts(clean, THIN_RADIUS), bump_classes, metrics.concavities(clean, height))
 
 
 # ------------------------------------------------------------------------------------------ methods

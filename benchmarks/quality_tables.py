@@ -18,6 +18,10 @@ SUMMARY_METRICS = {
     "dents_left": ("dents left", "{:.1%}"),
     "clean_lost": ("clean lost", "{:.2%}"),
     "new_material": ("new material", "{:.2%}"),
+    "bumps_left_thin": ("bumps left, parts ≤ 3 thick", "{:.1%}"),
+    "bumps_left_thick": ("bumps left, parts ≥ 13 thick", "{:.1%}"),
+    "bumps_left_over_2h": ("bumps left, parts over 2 h thick", "{:.1%}"),
+    "concavity_filled": ("concavities filled", "{:.2%}"),
     "thin_kept": ("thin parts kept", "{:.1%}"),
     "error_ratio": ("voxel error / input's", "{:.2f}"),
     "chamfer": ("Chamfer", "{:.3f}"),
@@ -151,6 +155,30 @@ def _normal_to_smoothers(entry, case, results):
     return entry["normal_error_deg"] / min(rivals) if rivals else None
 
 
+def _chamfer_to_laplacian(entry, case, results):
+    laplacian = _entry(case, "laplacian")
+    return None if laplacian is None else entry["chamfer"] / laplacian["chamfer"]
+
+
+def _per_kind_median(key, kinds):
+    """A Target's ``values``: the checked variant's median ``key`` per noise kind of ``kinds``."""
+    def values(results, cases, check):
+        out = []
+        for kind in kinds:
+            pairs = _per_case(_metric(key), (kind,))(results, cases, check)
+            numbers = [v for _, v in pairs if _number(v)]
+            if numbers:
+                out.append((kind, float(np.median(numbers))))
+        return out
+    return values
+
+
+def _genus_share_differing(results, cases, check):
+    """The share of the cases whose output's genus differs from the clean shape's (failures count)."""
+    pairs = _per_case(_genus_change("genus"))(results, cases, check)
+    return [("cases", float(np.mean([v != 0 for _, v in pairs])))] if pairs else []
+
+
 def _genus_change(key):
     return lambda entry, case, results: abs(entry[key] - results["shapes"][case["shape"]][key])
 
@@ -242,6 +270,20 @@ TARGETS = (
            _per_case(_chamfer_to_best_rival), 1.0, "{:.2f}", strict=True),
     Target("bumps-dents: clean lost ≤ 1 % on each",
            _per_case(_metric("clean_lost"), ("bumps-dents",)), 0.01, "{:.2%}"),
+    Target("every noisy case: Chamfer ≤ the noisy input's (ratio ≤ 1: never worse than doing nothing)",
+           _per_case(_chamfer_to_noisy), 1.0, "{:.2f}"),
+    Target("bumps-dents: Chamfer below MeshLab Laplacian's on the median (ratio < 1)",
+           _per_case(_chamfer_to_laplacian, ("bumps-dents",)), 1.0, "{:.2f}", median=True, strict=True),
+    Target("bumps-dents: median dents left ≤ 35 %",
+           _per_case(_metric("dents_left"), ("bumps-dents",)), 0.35, "{:.1%}", median=True),
+    Target("bumps-dents: median bumps left ≤ 30 %",
+           _per_case(_metric("bumps_left"), ("bumps-dents",)), 0.30, "{:.1%}", median=True),
+    Target("every noisy case: the clean shape's concavities (deeper than the noise) filled ≤ 1 %",
+           _per_case(_metric("concavity_filled")), 0.01, "{:.2%}"),
+    Target("every noise kind: median bumps left on parts thicker than twice the noise height ≤ 10 %",
+           _per_kind_median("bumps_left_over_2h", BUMPS_ONLY + ("bumps-dents",)), 0.10, "{:.1%}"),
+    Target("genus equal to the clean shape's on at least half the cases (share differing ≤ 50 %)",
+           _genus_share_differing, 0.5, "{:.0%}"),
     Target("another denoise resolution (e.g. 256): noise left within 0.05 of this one on each",
            _resolution_agreement, 0.05, "{:.3f}"),
 )

@@ -207,3 +207,42 @@ def test_nan_and_empty_results_give_an_error_entry():
     assert "area" in metrics.mesh_metrics(flat, box, GRID)["error"]
     with pytest.raises(InputError):
         metrics.mesh_metrics(box, trimesh.Trimesh(), GRID)
+
+
+def test_thickness_under_tells_a_bump_on_a_body_from_one_on_a_plate():
+    from skelfilter.evaluation.metrics import thickness_under
+
+    clean = np.zeros((40, 40, 40), dtype=bool)
+    clean[5:18, 5:35, 5:35] = True  # a body 13 voxels thick
+    clean[18:30, 28:30, 5:35] = True  # a plate 2 voxels thick standing on it
+    bumps = np.zeros_like(clean)
+    bumps[18:20, 14:16, 18:20] = True  # on the body's face, away from its edges and the plate
+    bumps[22:24, 30:32, 18:20] = True  # on the plate's side
+    thick = thickness_under(bumps, clean, 12)
+    assert thick[18:20, 14:16, 18:20].all() and not thick[22:24, 30:32, 18:20].any()
+    assert not (thick & ~bumps).any()
+    # a slab of 13 voxels is thicker than 12, not than 14
+    assert not thickness_under(bumps, clean, 14)[18:20, 14:16, 18:20].any()
+
+
+def test_concavities_against_the_hull_tested_voxel_by_voxel():
+    from scipy import ndimage, spatial
+
+    from skelfilter.evaluation.metrics import concavities, concavity_filled
+
+    cup = np.zeros((24, 24, 24), dtype=bool)
+    cup[3:20, 3:20, 3:20] = True
+    cup[7:16, 7:16, 7:20] = False  # open at the top: a cavity
+    cup[10:12, 3:5, 3:20] = False  # and a groove on a side
+    for depth in (0.0, 2.0):
+        points = np.argwhere(cup)
+        equations = spatial.ConvexHull(points).equations
+        grid = np.indices(cup.shape).reshape(3, -1).T
+        in_hull = (grid @ equations[:, :3].T + equations[:, 3] <= 1e-9).all(axis=1).reshape(cup.shape)
+        want = in_hull & ~cup & (ndimage.distance_transform_edt(~cup) > depth)
+        got = concavities(cup, depth)
+        assert np.array_equal(got, want) and got[11, 11, 15]
+    filled = cup.copy()
+    filled[7:16, 7:16, 7:10] = True
+    assert 0 < concavity_filled(filled, got) < 1 and concavity_filled(cup, got) == 0
+    assert np.isnan(concavity_filled(cup, np.zeros_like(cup)))

@@ -39,8 +39,11 @@ from skelfilter.evaluation.metrics.topology import (
     voxel_genus,
 )
 from skelfilter.evaluation.metrics.volumetric import (
+    concavities,
+    concavity_filled,
     noise_removed,
     shrinkage,
+    thickness_under,
     thin_parts,
     thin_parts_kept,
     volumetric_iou,
@@ -48,9 +51,10 @@ from skelfilter.evaluation.metrics.volumetric import (
 
 __all__ = [
     "GENUS_RESOLUTION", "N_SAMPLES", "SEED", "LiteratureScores", "chamfer_distance", "change_measures",
-    "closed_manifold_genus", "genus", "geodesic_errors", "hausdorff_distance", "is_edge_manifold",
-    "literature_errors", "literature_normal_error", "mesh_metrics", "noise_removed", "normal_error",
-    "pass_through", "reconstruction_error", "roughness", "sharp_edge_error", "sharp_edges", "shrinkage",
-    "skeleton_error", "skeleton_false_positive_rate", "surface_distances", "thin_parts",
-    "thin_parts_kept", "vertex_distances", "volume_change", "volumetric_iou", "voxel_genus",
+    "closed_manifold_genus", "concavities", "concavity_filled", "genus", "geodesic_errors",
+    "hausdorff_distance", "is_edge_manifold", "literature_errors", "literature_normal_error", "mesh_metrics",
+    "noise_removed", "normal_error", "pass_through", "reconstruction_error", "roughness", "sharp_edge_error",
+    "sharp_edges", "shrinkage", "skeleton_error", "skeleton_false_positive_rate", "surface_distances",
+    "thickness_under", "thin_parts", "thin_parts_kept", "vertex_distances", "volume_change", "volumetric_iou",
+    "voxel_genus",
 ]

@@ -1,8 +1,9 @@
-"""Measures on the voxelized result: IoU, the noise removed, shrinkage, thin parts kept.
+"""Measures on the voxelized result: IoU, the noise removed, shrinkage, thin parts kept, the noise left by
+the thickness of the part under it, the clean shape's concavities filled.
 """
 
 import numpy as np
-from scipy import ndimage
+from scipy import ndimage, spatial
 
 from skelfilter.errors import ParameterError
 from skelfilter.mesh.voxelize import voxelize_on_grid
@@ -122,3 +123,61 @@ def thin_parts_kept(result_volume, thin):
     when there are none."""
     n = np.count_nonzero(thin)
     return float(np.count_nonzero(thin & result_volume) / n) if n else float("nan")
+
+
+def thickness_under(outside, clean, thickness):
+    """Which voxels of ``outside`` (those not in ``clean``) stand on a part of ``clean`` thicker than
+    ``thickness`` voxels: their nearest clean voxel lies in the opening of ``clean`` by a ball of
+    diameter ``thickness`` (`thin_parts` is the rest of ``clean``); measured centre to centre as
+    `thin_parts` measures, a slab of n voxels is thicker than n - 1 and not than n + 1.
+
+    A bump on a body or a head reads as thick, one on a leg, a fin or a rim, or at a convex edge, as
+    thin. Voxels are compared centre to centre.
+
+    Returns
+    -------
+    ndarray of bool, the shape of ``clean``
+        True at the voxels of ``outside`` standing on a part that thick.
+    """
+    clean = np.asarray(clean, dtype=bool)
+    outside = np.asarray(outside, dtype=bool) & ~clean
+    thick = clean & ~thin_parts(clean, thickness / 2.0)
+    if not outside.any() or not thick.any():
+        return np.zeros(clean.shape, dtype=bool)
+    nearest = ndimage.distance_transform_edt(~clean, return_distances=False, return_indices=True)
+    under = tuple(axis[outside] for axis in nearest)
+    result = np.zeros(clean.shape, dtype=bool)
+    result[outside] = thick[under]
+    return result
+
+
+def concavities(clean, depth):
+    """The clean shape's concavities deeper than ``depth`` voxels: the voxels inside the convex hull
+    of its voxels' centres, outside it, farther than ``depth`` from it (a mug's inside, a channel, the
+    space between legs, less the layer in which surface noise lies).
+
+    Returns
+    -------
+    ndarray of bool, the shape of ``clean``
+    """
+    clean = np.asarray(clean, dtype=bool)
+    deep = ndimage.distance_transform_edt(~clean) > depth
+    result = np.zeros(clean.shape, dtype=bool)
+    points = np.argwhere(clean)
+    if len(points) < 4 or np.linalg.matrix_rank(points[1:] - points[0]) < 3:
+        return result  # flat: no hull with a volume
+    hull = spatial.ConvexHull(points)
+    low, high = points.min(axis=0), points.max(axis=0) + 1
+    box = tuple(slice(lo, hi) for lo, hi in zip(low, high))
+    candidates = np.argwhere(deep[box]) + low
+    if len(candidates):
+        inside = spatial.Delaunay(points[hull.vertices]).find_simplex(candidates) >= 0
+        result[tuple(candidates[inside].T)] = True
+    return result
+
+
+def concavity_filled(result_volume, concave):
+    """Share of the ``concave`` voxels (`concavities` of the clean shape) that ``result_volume`` fills;
+    NaN when there are none."""
+    n = np.count_nonzero(concave)
+    return float(np.count_nonzero(concave & result_volume) / n) if n else float("nan")
