@@ -78,7 +78,7 @@ RIVAL_NICENESS = 10
 CLEAN_PASS_PADDING = 8  # voxels around a clean shape on the grid of the clean pass
 # Bump when the noisy meshes or the scores change meaning: cached ones are then made again.
 NOISY_VERSION = 1
-SCORE_VERSION = 4
+SCORE_VERSION = 5
 THIN_RADIUS = 4.0  # voxels: the ball whose opening finds the clean shape's thin parts (`metrics.thin_parts`)
 # voxels: bumps left are also counted on parts at most this thin, at least this thick (`metrics.thickness_under`)
 THIN_PART, THICK_PART = 3, 13
@@ -145,7 +145,7 @@ class Prepared:
     facts: dict
     thin: np.ndarray = None  # the clean voxels an opening by a radius-THIN_RADIUS ball removes
     bump_classes: dict = None  # "thin", "thick", "over_2h" -> the bump voxels standing on such parts
-    concave: np.ndarray = None  # the clean shape's concavities deeper than the noise (`metrics.concavities`)
+    concave: np.ndarray = None  # the clean shape's concavities deeper than the noise, but the bumps
 
 
 def _digest(*parts):
@@ -205,7 +205,8 @@ def score(mesh, prep):
     parts of the clean shape at most `THIN_PART` voxels thick, at least `THICK_PART`, thicker than twice
     the kind's noise height (`skelfilter.evaluation.metrics.thickness_under`; NaN without such bumps);
     ``concavity_filled``: the share of the clean shape's concavities deeper than the noise height
-    (`skelfilter.evaluation.metrics.concavities`: inside its convex hull) that V fills.
+    (`skelfilter.evaluation.metrics.concavities`: inside its convex hull), less the bumps' voxels (the
+    noise's tops stand a little higher than h), that V fills.
 
     Returns
     -------
@@ -306,7 +307,8 @@ def load_case(case, setup):
                     "over_2h": metrics.thickness_under(bumps, clean, 2 * height)}
     return Prepared(shapes.load(case.shape), mesh_files.load_mesh(stem + "-marching.ply"),
                     mesh_files.load_mesh(stem + "-decimated.ply"), noise, grid, _read_json(stem + ".json"),
-                    metrics.thin_parts(clean, THIN_RADIUS), bump_classes, metrics.concavities(clean, height))
+                    metrics.thin_parts(clean, THIN_RADIUS), bump_classes,
+                    metrics.concavities(clean, height) & ~bumps)
 
 
 # ------------------------------------------------------------------------------------------ methods
