@@ -14,8 +14,9 @@ meshes either) and is scored against the clean mask:
   ``sigma`` is at least ``level`` (deep inside a smooth reading: the halos beside the dents).
 - ``closing <radius>``: the default plus what a closing of its own output by a ball of ``radius``
   fills (its depressions: halos, then dents).
-- ``background, foreground estimate``: both stages, the background's features kept with the
-  foreground's noise height in place of its own.
+- ``both stages`` (with the background's own estimate: whether it finds dents) and ``background,
+  foreground estimate``: the background's features kept with the foreground's noise height in place
+  of its own.
 - ``proxy g<sigma>``: the per-ball oracle (`ball_oracle.owned_oracle`, seam smoothed) with the
   input's Gaussian reading in place of the clean shape; with ``--median``, ``median <w>`` (the
   level 0 of the input's signed distance median-filtered over ``w`` voxels: the modal surface,
@@ -140,7 +141,7 @@ def variants(case, median):
     with Recorder() as record:
         record.foreground_estimate = None
         both = pipeline.denoise_volume(noisy, params.with_(stages="both")).mask
-    yield "both stages", both
+    yield f"both stages ({record.estimates['dents'].describe()})", both
     with Recorder() as record:
         with Recorder() as first:
             pipeline.denoise_volume(noisy, params)
