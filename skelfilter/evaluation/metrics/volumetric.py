@@ -132,7 +132,7 @@ def thickness_under(outside, clean, thickness):
     `thin_parts` measures, a slab of n voxels is thicker than n - 1 and not than n + 1.
 
     A bump on a body or a head reads as thick, one on a leg, a fin or a rim, or at a convex edge, as
-    thin. Voxels are compared centre to centre.
+    thin.
 
     Returns
     -------
