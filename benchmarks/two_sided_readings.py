@@ -10,6 +10,8 @@ meshes either) and is scored against the clean mask:
 
 - ``default``; ``pruned``: its pruning before the features kept; ``restored``: the steps of
   `pipeline.keep_features` one by one, to see which gives back the bumps on thick parts.
+- ``balls over <radius> voxels kept``: the pruning keeps every ball that large whatever its
+  importance (too large to be a bump: would they carry the parts the restoring gives back whole?).
 - ``halo g<sigma>@<level>``: the default, plus the voxels it removed where the input's Gaussian of
   ``sigma`` is at least ``level`` (deep inside a smooth reading: the halos beside the dents).
 - ``closing <radius>``: the default plus what a closing of its own output by a ball of ``radius``
@@ -36,7 +38,7 @@ import quality
 import shapes
 from scipy import ndimage
 
-from skelfilter.core import feature_restore, noise_estimate, pipeline
+from skelfilter.core import feature_restore, noise_estimate, pipeline, pruning_rules
 from skelfilter.evaluation import metrics
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.params import DenoiseParams
@@ -113,6 +115,23 @@ class Recorder:
         return self.steps[name][tuple(slice(o, o + s) for o, s in zip(offset, noisy.shape))]
 
 
+class LargeBallsKept:
+    """The pruning keeps every skeleton ball of radius over ``radius`` voxels, whatever its importance."""
+
+    def __init__(self, radius):
+        self.radius, self._original = radius, pruning_rules.kept_voxels
+
+    def __enter__(self):
+        def kept_voxels(measures, params, joined=None):
+            kept, rho_plus = self._original(measures, params, joined=joined)
+            return kept | (measures.radius > self.radius), rho_plus
+        pruning_rules.kept_voxels = kept_voxels
+        return self
+
+    def __exit__(self, *exc):
+        pruning_rules.kept_voxels = self._original
+
+
 def closing(mask, radius):
     pad = int(radius) + 2
     grown = ndimage.distance_transform_edt(~np.pad(mask, pad)) <= radius
@@ -132,6 +151,9 @@ def variants(case, median):
     yield "restored by extent", restored
     restored = kept | record.cropped("along_lines", noisy)
     yield "... but for straight runs' noise", restored
+    for radius in (12, 5):
+        with LargeBallsKept(radius):
+            yield f"balls over {radius} voxels kept", pipeline.denoise_volume(noisy, params).mask
     removed = noisy & ~default
     for sigma, level in ((2.0, 0.7), (3.0, 0.6)):
         reading = ndimage.gaussian_filter(noisy.astype(np.float32), sigma) >= level
