@@ -264,8 +264,6 @@ TARGETS = (
            _per_case(lambda e, c, r: 1.0 - e["thin_kept"]), 0.1, "{:.1%}"),
     Target("every noisy case: components equal to the clean shape's (|difference|)",
            _per_case(_components_change), 0, "{:.0f}"),
-    Target("every noisy case: Chamfer below the noisy input's (ratio < 1)",
-           _per_case(_chamfer_to_noisy), 1.0, "{:.2f}", strict=True),
     Target("every noisy case: Chamfer below the best rival's (ratio < 1)",
            _per_case(_chamfer_to_best_rival), 1.0, "{:.2f}", strict=True),
     Target("bumps-dents: clean lost ≤ 1 % on each",
