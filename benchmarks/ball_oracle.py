@@ -262,19 +262,9 @@ def separability(noisy, fg, resolution):
 
 
 def scores(out, noise, thin):
-    """The voxel measures of an output mask against the case's noise masks."""
-    n_bumps, n_dents = int(noise.bumps.sum()), int(noise.dents.sum())
-    left_bumps, left_dents = int((noise.bumps & out).sum()), int((noise.dents & ~out).sum())
-    share = quality._share
-    return {
-        "noise_left": share(left_bumps + left_dents, n_bumps + n_dents),
-        "bumps_left": share(left_bumps, n_bumps),
-        "dents_left": share(left_dents, n_dents),
-        "clean_lost": share(int((noise.clean & ~noise.dents & ~out).sum()), int(noise.clean.sum())),
-        "thin_kept": metrics.thin_parts_kept(out, thin),
-        "error_ratio": share(int((out ^ noise.clean).sum()), int((noise.noisy ^ noise.clean).sum())),
-        "genus": metrics.voxel_genus(out)["genus"],
-    }
+    """The voxel measures of an output mask against the case's noise masks (`quality.voxel_measures`)
+    and the genus of its voxels."""
+    return {**quality.voxel_measures(out, noise, thin), "genus": metrics.voxel_genus(out)["genus"]}
 
 
 def run_case(shape, kind, seed, resolution, with_default, seam_sigma=SEAM_SIGMA):

@@ -187,6 +187,40 @@ def _share(part, whole):
     return float(part / whole) if whole else float("nan")
 
 
+def voxel_references(noise, kind):
+    """What `voxel_measures` compares a result with, from a case's noise masks: the clean shape's thin
+    parts, its bumps by the part under them (``{"thin", "thick", "over_2h"}``), its concavities deeper
+    than the kind's noise height but the bumps' voxels."""
+    clean, bumps = noise.clean, noise.bumps
+    height = NOISE_KINDS[kind]["h"]
+    bump_classes = {"thin": bumps & ~metrics.thickness_under(bumps, clean, THIN_PART),
+                    "thick": metrics.thickness_under(bumps, clean, THICK_PART - 1),
+                    "over_2h": metrics.thickness_under(bumps, clean, 2 * height)}
+    return metrics.thin_parts(clean, THIN_RADIUS), bump_classes, metrics.concavities(clean, height) & ~bumps
+
+
+def voxel_measures(volume, noise, thin, bump_classes=None, concave=None):
+    """`score`'s measures of a result's voxels ``volume`` on the noise grid (``thin``, ``bump_classes``
+    and ``concave`` from `voxel_references`; the last two optional, their measures left out)."""
+    n_bumps, n_dents, n_clean = (np.count_nonzero(m) for m in (noise.bumps, noise.dents, noise.clean))
+    left_bumps = np.count_nonzero(noise.bumps & volume)
+    left_dents = np.count_nonzero(noise.dents & ~volume)
+    measures = {
+        "noise_left": _share(left_bumps + left_dents, n_bumps + n_dents),
+        "bumps_left": _share(left_bumps, n_bumps),
+        "dents_left": _share(left_dents, n_dents),
+        "clean_lost": _share(np.count_nonzero(noise.clean & ~noise.dents & ~volume), n_clean),
+        "new_material": _share(np.count_nonzero(volume & ~noise.clean & ~noise.bumps), n_clean),
+        **{f"bumps_left_{name}": _share(np.count_nonzero(part & volume), np.count_nonzero(part))
+           for name, part in (bump_classes or {}).items()},
+        "thin_kept": metrics.thin_parts_kept(volume, thin),
+        "error_ratio": _share(np.count_nonzero(volume ^ noise.clean), np.count_nonzero(noise.noisy ^ noise.clean)),
+    }
+    if concave is not None:
+        measures["concavity_filled"] = metrics.concavity_filled(volume, concave)
+    return measures
+
+
 def score(mesh, prep):
     """Every measure of one result against the case's clean shape, in voxels of the noise grid.
 
@@ -217,24 +251,11 @@ def score(mesh, prep):
         return {"error": "empty or degenerate result mesh"}
     grid, noise, clean = prep.grid, prep.noise, prep.clean
     volume = voxelize_on_grid(mesh, grid)
-    n_bumps, n_dents, n_clean = (np.count_nonzero(m) for m in (noise.bumps, noise.dents, noise.clean))
-    left_bumps = np.count_nonzero(noise.bumps & volume)
-    left_dents = np.count_nonzero(noise.dents & ~volume)
     chamfer, h95, _ = metrics.surface_distances(mesh, clean, grid)
     sharp_mean, sharp_max, _ = metrics.sharp_edge_error(mesh, clean, grid)
     topology = metrics.genus(mesh, grid, volume)
-    noisy_error = np.count_nonzero(noise.noisy ^ noise.clean)
     return {
-        "noise_left": _share(left_bumps + left_dents, n_bumps + n_dents),
-        "bumps_left": _share(left_bumps, n_bumps),
-        "dents_left": _share(left_dents, n_dents),
-        "clean_lost": _share(np.count_nonzero(noise.clean & ~noise.dents & ~volume), n_clean),
-        "new_material": _share(np.count_nonzero(volume & ~noise.clean & ~noise.bumps), n_clean),
-        **{f"bumps_left_{name}": _share(np.count_nonzero(part & volume), np.count_nonzero(part))
-           for name, part in prep.bump_classes.items()},
-        "concavity_filled": metrics.concavity_filled(volume, prep.concave),
-        "thin_kept": metrics.thin_parts_kept(volume, prep.thin),
-        "error_ratio": _share(np.count_nonzero(volume ^ noise.clean), noisy_error),
+        **voxel_measures(volume, noise, prep.thin, prep.bump_classes, prep.concave),
         "chamfer": chamfer,
         "hausdorff_95": h95,
         "normal_error_deg": metrics.normal_error(mesh, clean),
@@ -301,14 +322,9 @@ def load_case(case, setup):
                                for k in ("clean", "bumps", "dents"))
         sites = z["sites"]
     noise = NoiseResult(clean=clean, noisy=(clean | bumps) & ~dents, bumps=bumps, dents=dents, sites=sites)
-    height = NOISE_KINDS[case.kind]["h"]
-    bump_classes = {"thin": bumps & ~metrics.thickness_under(bumps, clean, THIN_PART),
-                    "thick": metrics.thickness_under(bumps, clean, THICK_PART - 1),
-                    "over_2h": metrics.thickness_under(bumps, clean, 2 * height)}
     return Prepared(shapes.load(case.shape), mesh_files.load_mesh(stem + "-marching.ply"),
                     mesh_files.load_mesh(stem + "-decimated.ply"), noise, grid, _read_json(stem + ".json"),
-                    metrics.thin_parts(clean, THIN_RADIUS), bump_classes,
-                    metrics.concavities(clean, height) & ~bumps)
+                    *voxel_references(noise, case.kind))
 
 
 # ------------------------------------------------------------------------------------------ methods

@@ -39,37 +39,27 @@ import shapes
 from scipy import ndimage
 
 from skelfilter.core import feature_restore, noise_estimate, pipeline, pruning_rules
-from skelfilter.evaluation import metrics
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.params import DenoiseParams
 
-COLUMNS = ("bumps", "thick bumps", "dents", "lost", "new", "concavities", "error", "thin kept")
+# (column title, `quality.voxel_measures` key)
+COLUMNS = (("bumps", "bumps_left"), ("thick bumps", "bumps_left_over_2h"), ("dents", "dents_left"),
+           ("lost", "clean_lost"), ("new", "new_material"), ("concavities", "concavity_filled"),
+           ("error", "error_ratio"), ("thin kept", "thin_kept"))
 
 
 class Case:
-    """A case's masks and the measures' references."""
+    """A case's masks and what the measures compare a result with (`quality.voxel_references`)."""
 
     def __init__(self, shape, kind, seed, resolution):
         noise_params = quality.Case(shape, kind, seed).noise(resolution)
         _, self.noise, _ = mesh_pipeline.noisy_mesh(shapes.load(shape), noise_params)
-        height = quality.NOISE_KINDS[kind]["h"]
-        clean = self.noise.clean
-        self.concave = metrics.concavities(clean, height) & ~self.noise.bumps
-        self.thick_bumps = metrics.thickness_under(self.noise.bumps, clean, 2 * height)
-        self.thin = metrics.thin_parts(clean, quality.THIN_RADIUS)
+        self.references = quality.voxel_references(self.noise, kind)
         self.resolution = resolution
 
     def scores(self, out):
-        n = self.noise
-        share = quality._share
-        return (share(np.count_nonzero(n.bumps & out), np.count_nonzero(n.bumps)),
-                share(np.count_nonzero(self.thick_bumps & out), np.count_nonzero(self.thick_bumps)),
-                share(np.count_nonzero(n.dents & ~out), np.count_nonzero(n.dents)),
-                share(np.count_nonzero(n.clean & ~n.dents & ~out), np.count_nonzero(n.clean)),
-                share(np.count_nonzero(out & ~n.clean & ~n.bumps), np.count_nonzero(n.clean)),
-                metrics.concavity_filled(out, self.concave),
-                share(np.count_nonzero(out ^ n.clean), np.count_nonzero(n.noisy ^ n.clean)),
-                metrics.thin_parts_kept(out, self.thin))
+        measures = quality.voxel_measures(out, self.noise, *self.references)
+        return tuple(measures[key] for _, key in COLUMNS)
 
 
 class Recorder:
@@ -189,7 +179,7 @@ def main(argv=None):
     parser.add_argument("--resolution", type=int, default=160)
     parser.add_argument("--median", action="store_true", help="also the median-filtered readings (minutes per case)")
     args = parser.parse_args(argv)
-    print("| case | variant | " + " | ".join(COLUMNS) + " |\n|" + "---|" * (len(COLUMNS) + 2))
+    print("| case | variant | " + " | ".join(title for title, _ in COLUMNS) + " |\n|" + "---|" * (len(COLUMNS) + 2))
     for shape in args.shapes:
         for kind in args.kinds:
             case = Case(shape, kind, args.seed, args.resolution)
