@@ -248,3 +248,12 @@ def test_the_noise_coverage_finds_noise_on_a_noisy_cube_and_none_on_the_clean_on
     mask = noise_coverage.mesh_pipeline.noisy_mesh(noise_coverage.shapes.load("cube"), noisy)[1].noisy
     estimate = noise_coverage.estimate(mask)
     assert estimate.found  # coverage 0.076 at 96 voxels
+
+
+def test_volume_second_run_reads_both_estimates_and_scores_where_they_disagree():
+    import volume_second_run
+
+    row = volume_second_run.run_case("bunny", "strong", 40)
+    assert row["shape"] == "bunny" and row["input"] is not None and set(row["input"]) == {"found", "height", "coverage"}
+    if row["smoothed"] is not None and row["input"]["found"] and not row["smoothed"]["found"]:
+        assert row["default"] > 0 and row["input_only"] > 0
