@@ -35,6 +35,7 @@ demo: setup-demo
 
 test: setup
 	$(PYTHON) -m pytest -q -p no:cacheprovider tests
+	$(PYTHON) -m pytest -q -p no:cacheprovider --doctest-modules skelfilter
 
 lint: setup
 	$(PYTHON) -m ruff check .

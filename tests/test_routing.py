@@ -72,6 +72,9 @@ def test_a_clean_coarse_mesh_and_its_stl_come_back_as_they_were(tmp_path):
         out = mesh_pipeline.denoise_mesh(given, progress=progress)
         assert np.array_equal(out.vertices, given.vertices) and np.array_equal(out.faces, given.faces)
         assert any("comes back as it was" in n for n in progress.notes)
+        said = out.metadata["skelfilter"]  # what ran, for a library caller
+        assert said["route"] == "as it was" and said["output"] == "input" and not said["fine_pass"]
+        assert said["roughness"]["fine_degrees"] < output_choice.CLEAN_ROUGHNESS and said["noise"] == {}
 
 
 def test_a_low_poly_model_and_its_stl_read_clean_though_its_faces_turn_like_noise(tmp_path):
@@ -91,12 +94,15 @@ def test_fine_pass_on_smooths_a_clean_mesh_and_off_leaves_a_noisy_one():
     clean = trimesh.creation.icosphere(3)
     out = mesh_pipeline.denoise_mesh(clean, fine_pass="on")
     assert not np.array_equal(out.vertices, clean.vertices)
+    assert out.metadata["skelfilter"]["route"] == "fine pass" and out.metadata["skelfilter"]["fine_pass"]
     noisy = _noisy(clean, 0.3)
     progress = Progress(enabled=False)
-    assert np.array_equal(mesh_pipeline.denoise_mesh(noisy, fine_pass="off", progress=progress).vertices,
-                          noisy.vertices)
+    out = mesh_pipeline.denoise_mesh(noisy, fine_pass="off", progress=progress)
+    assert np.array_equal(out.vertices, noisy.vertices)
     said = " ".join(progress.notes)
     assert "as it is (fine pass off)" in said and "smoothed" not in said  # says what ran
+    route = out.metadata["skelfilter"]
+    assert route["route"] == "fine pass" and not route["fine_pass"] and "fine pass off" in route["reason"]
 
 
 def test_an_stl_file_is_denoised_like_the_obj(tmp_path):
@@ -126,6 +132,19 @@ def test_bumps_on_a_decimated_mesh_go_to_the_voxel_stage():
     out = mesh_pipeline.denoise_mesh(noisy, progress=progress)
     assert any("noise at the skeleton scale removed" in n for n in progress.notes)
     assert len(out.faces) != len(noisy.faces)  # a new closed mesh
+    route = out.metadata["skelfilter"]
+    assert route["route"] == "voxel stage" and route["output"] == "closed"
+    assert route["reason"] == "noise at the skeleton scale removed" and route["noise"]["foreground"]["found"]
+    assert route["noise"]["foreground"]["height_voxels"] > 0 and route["roughness"]["coarse_degrees"] >= 0
+
+
+def test_an_open_surface_comes_back_by_the_fine_pass_and_says_why():
+    sphere = _noisy(trimesh.creation.icosphere(4), 0.3)
+    cap = sphere.submesh([np.flatnonzero(sphere.triangles_center[:, 2] > 0.2)], append=True)
+    out, result, _ = mesh_pipeline.denoise_mesh_detailed(cap, output_mesh="input")
+    assert result.route.kind == "fine pass" and "open surface" in result.route.reason and result.route.fine_pass
+    assert out.metadata["skelfilter"] == result.route.as_dict() and not result.stages
+    assert len(out.faces) == len(cap.faces)
 
 
 def test_close_on_an_open_surface_is_refused():
@@ -169,3 +188,13 @@ def test_a_depth_cameras_scan_is_smoothed():
     before = metrics.literature_errors(scan, truth).theta
     after = metrics.literature_errors(mesh_pipeline.denoise_mesh(scan), truth).theta
     assert after < 0.75 * before
+
+
+def test_a_file_gets_the_route_in_its_summary_and_keeps_its_own_metadata(tmp_path):
+    from skelfilter.jobs.denoise_file import denoise_file
+
+    source = tmp_path / "sphere.glb"
+    trimesh.creation.icosphere(2).export(str(source))
+    summary = denoise_file(source, tmp_path / "out.glb", mesh_pipeline.resolve_params())
+    assert summary["route"]["route"] == "as it was"
+    assert b"skelfilter" not in (tmp_path / "out.glb").read_bytes()  # the file holds the mesh's own extras

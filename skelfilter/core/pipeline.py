@@ -43,6 +43,7 @@ class DenoiseResult:
     fine_noise: object = None  # a volume's volume_fine_pass.VoxelRoughness, where the fine pass changed it
     timings: dict = field(default_factory=dict)
     voxels_changed: int = 0  # voxels added or removed: on the voxel grid of a mesh, on a volume's own
+    route: object = None  # a mesh's skelfilter.mesh.route.Route: what ran and why
 
 
 def resolve_params(params=None, **overrides):

@@ -81,7 +81,8 @@ def denoise_file(input_path, output_path, params, volume_params=None, save_skele
     dict
         ``kind`` of the input, ``voxels_changed`` (voxels added or removed: on the grid a mesh is
         voxelized on, on a volume's own grid; None where the voxel stage did not run),
-        and ``vertices`` and ``faces`` of a mesh output.
+        and ``vertices``, ``faces`` and ``route`` (`skelfilter.mesh.route.Route.as_dict`: what ran and why)
+        of a mesh output.
     """
     input_path, output_path = str(input_path), str(output_path)
     kind_in, kind_out = check_paths(input_path, output_path, save_skeleton, points)
@@ -96,12 +97,13 @@ def denoise_file(input_path, output_path, params, volume_params=None, save_skele
     mesh = mesh_files.load_mesh(input_path)
     mesh_files.check_mesh_output(mesh, output_path)
     out, result, grid = mesh_pipeline.denoise_mesh_detailed(mesh, params, progress)
+    out.metadata.pop(mesh_pipeline.ROUTE_METADATA)  # the summary carries it; the file holds the mesh's own
     if out.units is None:  # a new closed mesh is in the input's unit
         out.units = mesh.units
     if "ply" in mesh.metadata:  # and a PLY output keeps the input's comments, naming what it drops
         out.metadata.setdefault("ply", mesh.metadata["ply"])
     if save_skeleton and not result.stages:
-        raise InputError(f"`save_skeleton`: no skeleton was computed ({progress.notes[-1]}); "
+        raise InputError(f"`save_skeleton`: no skeleton was computed ({result.route.reason}); "
                          "`output_mesh` closed runs the voxel stage")
     mesh_files.save_mesh(out, output_path, protect=[input_path])
     if save_skeleton:
@@ -109,7 +111,7 @@ def denoise_file(input_path, output_path, params, volume_params=None, save_skele
     if preview is not None:
         preview(mesh, out)
     return {"kind": "mesh", "voxels_changed": result.voxels_changed if result.stages else None,
-            "vertices": len(out.vertices), "faces": len(out.faces)}
+            "vertices": len(out.vertices), "faces": len(out.faces), "route": result.route.as_dict()}
 
 
 def _denoise_volume_file(input_path, output_path, kind_out, params, volume_params, progress, preview=None):
@@ -200,6 +202,7 @@ def _denoise_point_file(input_path, output_path, kind_out, params, progress, pre
         solid = point_cloud.points_to_mesh(cloud, input_path)
     try:
         out, result, _ = mesh_pipeline.denoise_mesh_detailed(solid, params.with_(output_mesh="closed"), progress)
+        out.metadata.pop(mesh_pipeline.ROUTE_METADATA)
     except OpenSurfaceError:
         raise InputError(f"{input_path}: the points' Poisson surface encloses no solid (a scan that does not go "
                          "all round the object, or noise as thick as its thinnest parts)") from None

@@ -10,13 +10,16 @@ from skelfilter.core import surface_field, synthetic_noise
 from skelfilter.core.pipeline import DenoiseResult, denoise_padded, padding_from, passes_through, resolve_params
 from skelfilter.errors import InputError, OpenSurfaceError, ParameterError, ResourceError
 from skelfilter.io.mesh_files import validate_mesh
-from skelfilter.mesh import fine_pass, marching_cubes, output_choice, vertex_projection, voxelize
+from skelfilter.mesh import fine_pass, marching_cubes, output_choice, route, vertex_projection, voxelize
 from skelfilter.mesh.frame import Frame
 from skelfilter.parameter_fields import build
 from skelfilter.params import NoiseParams, voxel_fields_given
 from skelfilter.runtime import worker_threads
 from skelfilter.runtime.memory import check_grid_fits
 from skelfilter.runtime.progress import Progress
+
+# The key of the output mesh's ``metadata`` that holds its `route.Route` (`Route.as_dict`).
+ROUTE_METADATA = "skelfilter"
 
 
 def _voxelize(mesh, resolution, padding, progress, padding_by, required=True, lattice=None):
@@ -46,17 +49,32 @@ def _require_inside(occupancy, mesh, grid, resolution):
 
 
 def denoise_mesh(mesh, params=None, progress=None, **overrides):
-    """Denoise a triangle mesh: voxelize, run the pipeline, marching cubes.
+    """Denoise a triangle mesh, on the route its roughness calls for (`route.choose`).
+
+    A clean mesh comes back as it was; fine noise is smoothed on the input mesh itself (the fine pass);
+    a solid covered in noise at the skeleton's scale goes through the skeleton denoiser on its voxels
+    (thesis §8.1.1) and comes back as a new closed mesh where noise was pruned.
 
     Parameters
     ----------
     mesh : trimesh.Trimesh or (vertices, faces)
-    params : DenoiseParams, optional; keyword arguments override its fields.
+    params : DenoiseParams, optional; keyword arguments override its fields (`skelfilter.params`
+        lists them with their units, ranges and defaults).
 
     Returns
     -------
     trimesh.Trimesh
-        Watertight mesh in the input's world coordinates.
+        In the input's world coordinates: the input mesh with its vertices moved or as it was (an open
+        surface stays open; colours and UVs kept), or a new closed mesh. Its ``metadata["skelfilter"]``
+        says which route ran and why, with the roughness and the noise measured (`route.Route.as_dict`).
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> from skelfilter import denoise_mesh
+    >>> out = denoise_mesh(trimesh.creation.icosphere(subdivisions=3))
+    >>> out.metadata["skelfilter"]["route"]
+    'as it was'
 
     References
     ----------
@@ -71,7 +89,8 @@ def denoise_mesh(mesh, params=None, progress=None, **overrides):
 def denoise_mesh_detailed(mesh, params=None, progress=None, **overrides):
     """Like :func:`denoise_mesh`, also returning the DenoiseResult and the Grid.
 
-    The DenoiseResult has no stages when the voxel stage did not run (an open input kept as it is).
+    The DenoiseResult's ``route`` (`route.Route`) says which route the mesh took and why, with the
+    roughness and noise measured; it has no stages when the voxel stage did not run.
     The work is done in the mesh's unit frame (:mod:`skelfilter.mesh.frame`): the result does not
     depend on the mesh's scale or position.
     """
@@ -90,87 +109,74 @@ def denoise_mesh_detailed(mesh, params=None, progress=None, **overrides):
         warnings.warn(f"the new closed mesh has no {lost}; output_mesh input keeps them "
                       "(the input mesh with its vertices moved)", stacklevel=2)
     out = frame.to_world(closed) if closed is not None else frame.moved(mesh, unit, kept_vertices)
+    out.metadata[ROUTE_METADATA] = result.route.as_dict()
     return out, result, frame.grid_to_world(grid)
 
 
 def _denoise_unit(mesh, params, progress):
     """`denoise_mesh_detailed` on a mesh in its unit frame: (a new closed mesh or None, the moved
-    vertices of ``mesh`` or None, the DenoiseResult, the Grid)."""
+    vertices of ``mesh`` or None, the DenoiseResult with its `route.Route`, the Grid)."""
     given = voxel_fields_given(params)
     asked = [name for name in given if name != "resolution"]  # the resolution also tells solids from surfaces
     if params.resolution is not None:  # a grid that cannot be is refused whatever runs
         check_grid_fits(_grid(mesh, params.resolution, params.padding_voxels).shape, padding=params.padding_voxels,
                         padding_from=padding_from(params), faces=len(mesh.faces))
     lattice = voxelize.voxel_lattice(mesh)
-    roughness = None  # a mesh not made of voxels: its output_choice.Roughness
-    if lattice is None and (params.output_mesh in ("auto", "input") or params.fine_pass != "off"):
-        with progress.step("roughness"):
-            roughness = output_choice.measure(mesh)
-    fine_noise = roughness is not None and roughness.noisy and not roughness.skeleton_scale
-    if params.output_mesh == "closed" and roughness is not None and (
-            params.fine_pass == "on" or (params.fine_pass == "auto" and fine_noise)):
-        mesh = _smoothed_first(mesh, params, roughness, progress)
-    routed = params.output_mesh == "auto" and not asked and roughness is not None
-    if routed and not roughness.noisy and params.fine_pass != "on":
-        return _as_it_was(mesh, params, roughness, given, progress)
+    chosen = route.choose(mesh, params, lattice, bool(asked), progress)
+    if chosen.kind == route.AS_IT_WAS:
+        return _as_it_was(mesh, params, chosen, given, progress)
+    smoothed_first = False
+    if chosen.output == "closed" and chosen.roughness is not None and (
+            params.fine_pass == "on" or (params.fine_pass == "auto" and chosen.roughness.noisy
+                                         and not chosen.roughness.skeleton_scale)):
+        mesh, smoothed_first = _smoothed_first(mesh, params, chosen.roughness, progress), True
     worker_threads.start()
-    skipped = None  # why the voxel stage does not run
-    if routed and not roughness.skeleton_scale:
-        skipped = f"{roughness.describe()}: the input mesh comes back, {_fine_pass_effect(params)}"
-    elif routed:
-        progress.note(f"{roughness.describe()}: the voxel stage measures it")
-    preferred = output_choice.SKELETON_RESOLUTION if routed and roughness.skeleton_scale else None
-    params, lattice = _resolved(mesh, params, lattice, skipped is not None, progress, preferred)
+    if chosen.kind == route.FINE_PASS:
+        params, _ = _resolved(mesh, params, lattice, True, progress)
+        grid = _grid(mesh, params.resolution, params.padding_voxels)
+        unused = f" (resolution {params.resolution} is not used)" if given else ""
+        return _fine_pass_only(mesh, params, chosen.settled(reason=chosen.reason + unused), grid, progress)
+    return _voxel_stage(mesh, params, chosen.settled(fine_pass=smoothed_first), lattice, given, asked, progress)
+
+
+def _voxel_stage(mesh, params, chosen, lattice, given, asked, progress):
+    """`_denoise_unit`'s voxel stage route: the solid check, the skeleton denoiser, then a new closed mesh
+    or the input's vertices moved; a surface that is not a solid goes to `_fine_pass_only`."""
+    routed = chosen.roughness is not None and params.output_mesh == "auto" and not asked
+    if routed:
+        progress.note(chosen.reason)
+    preferred = output_choice.SKELETON_RESOLUTION if routed else None
+    params, lattice = _resolved(mesh, params, lattice, False, progress, preferred)
     output = params.output_mesh
-    occupancy = None
-    if skipped is None:
-        occupancy, grid = _voxelize(mesh, params.resolution, params.padding_voxels, progress, padding_from(params),
-                                    required=output == "closed", lattice=lattice)
-    else:  # decided before voxelizing: the grid is only the frame of the (empty) result
-        grid = _grid(mesh, params.resolution, params.padding_voxels, lattice)
-    if skipped is None:
-        with progress.step("solid check"):
-            solid = occupancy.any() and (
-                output_choice.is_closed(mesh.faces)
-                or output_choice.solid_share(occupancy, mesh, grid) >= output_choice.SOLID_SHARE)
-            if not solid and output == "closed":
-                raise OpenSurfaceError(
-                    f"the input is an open surface (less than {100 * output_choice.SOLID_SHARE:g} % of its "
-                    "voxelization lies on it): a new closed mesh of it would be the voxels it happens to enclose, "
-                    "not the scan; output_mesh auto or input keeps the surface and smooths it")
-            if not solid:
-                skipped = (f"the input is an open surface: its own mesh comes back, {_fine_pass_effect(params)} "
-                           "(the voxel stage needs a solid)")
-                if given:
-                    skipped += f" (resolution {params.resolution} was used only to tell a solid from a surface)"
-    if skipped is not None:
+    occupancy, grid = _voxelize(mesh, params.resolution, params.padding_voxels, progress, padding_from(params),
+                                required=output == "closed", lattice=lattice)
+    with progress.step("solid check"):
+        solid = occupancy.any() and (
+            output_choice.is_closed(mesh.faces)
+            or output_choice.solid_share(occupancy, mesh, grid) >= output_choice.SOLID_SHARE)
+    if not solid:
+        if output == "closed":
+            raise OpenSurfaceError(
+                f"the input is an open surface (less than {100 * output_choice.SOLID_SHARE:g} % of its "
+                "voxelization lies on it): a new closed mesh of it would be the voxels it happens to enclose, "
+                "not the scan; output_mesh auto or input keeps the surface and smooths it")
+        why = (f"the input is an open surface: its own mesh comes back, {route.fine_pass_effect(params)} "
+               "(the voxel stage needs a solid)")
+        if given:
+            why += f" (resolution {params.resolution} was used only to tell a solid from a surface)"
         if asked:
-            raise ParameterError(f"{', '.join(asked)} would have no effect: {skipped}; output_mesh closed runs "
+            raise ParameterError(f"{', '.join(asked)} would have no effect: {why}; output_mesh closed runs "
                                  "the voxel stage on any input")
-        if given and occupancy is None:
-            skipped += f" (resolution {params.resolution} is not used)"
-        progress.note(skipped)
-        result = DenoiseResult(mask=occupancy, field=None, timings=progress.timings)
-        return None, _kept_vertices(mesh, None, params, grid, progress, roughness), result, grid
+        return _fine_pass_only(mesh, params, chosen.settled(kind=route.FINE_PASS, reason=why, output="input"),
+                               grid, progress, occupancy)
     _require_inside(occupancy, mesh, grid, params.resolution)
     result = denoise_padded(occupancy.copy(), params, progress)
     result.voxels_changed = int(np.count_nonzero(result.mask != occupancy))
     voxel_moves = output == "input"
+    why = chosen.reason
     if output == "auto":
-        pruned = not passes_through(params, result) and result.voxels_changed
-        found = result.noise.get("foreground")
-        if pruned and roughness is not None and found is not None and found.coverage < output_choice.SKELETON_COVERAGE:
-            pruned = False  # too little for noise at the skeleton's scale on a mesh not made of voxels
-            progress.note(f"noise at the skeleton's scale on {100 * found.coverage:.0f} % of the surface (from "
-                          f"{100 * output_choice.SKELETON_COVERAGE:.0f} % on a mesh not made of voxels): not pruned")
-        output = "closed" if pruned else "input"
-        if output == "input":
-            why = "no noise at the skeleton scale"
-        elif found is not None and not found.found:
-            why = f"pruned at the threshold given, t = {params.threshold_voxels:g} voxels, though no noise was found"
-        else:
-            why = "noise at the skeleton scale removed"
-        progress.note(f"output: {'a new closed mesh' if output == 'closed' else 'the input mesh'} ({why})")
+        output, why = _auto_output(params, result, chosen.roughness, progress)
+    result.route = chosen.settled(output=output, reason=why, noise=dict(result.noise))
     if output == "closed":
         kept = None
         if params.unchanged_surface == "input":
@@ -182,13 +188,42 @@ def _denoise_unit(mesh, params, progress):
                 return marching_cubes.field_to_mesh(result.field, grid), None, result, grid
         with progress.step("smooth surface"):
             return marching_cubes.smooth_field_to_mesh(result.field, result.mask, grid, kept), None, result, grid
-    vertices = _kept_vertices(mesh, (result, occupancy) if voxel_moves else None, params, grid, progress, roughness)
+    vertices, smoothed = _kept_vertices(mesh, (result, occupancy) if voxel_moves else None, params, grid, progress,
+                                        chosen.roughness)
+    result.route = result.route.settled(fine_pass=smoothed)
     return None, vertices, result, grid
 
 
-def _fine_pass_effect(params):
-    """What happens to an input mesh that comes back as itself, in the words of a note."""
-    return "as it is (fine pass off)" if params.fine_pass == "off" else "smoothed by the fine pass"
+def _auto_output(params, result, roughness, progress):
+    """``output_mesh`` auto after the voxel stage: ``("closed" or "input", why)``, told through ``progress``.
+    A new closed mesh where the stages pruned noise at the skeleton's scale (on a mesh not made of
+    voxels, on at least `output_choice.SKELETON_COVERAGE` of the surface), else the input mesh."""
+    pruned = not passes_through(params, result) and result.voxels_changed
+    found = result.noise.get("foreground")
+    if pruned and roughness is not None and found is not None and found.coverage < output_choice.SKELETON_COVERAGE:
+        pruned = False  # too little for noise at the skeleton's scale on a mesh not made of voxels
+        progress.note(f"noise at the skeleton's scale on {100 * found.coverage:.0f} % of the surface (from "
+                      f"{100 * output_choice.SKELETON_COVERAGE:.0f} % on a mesh not made of voxels): not pruned")
+    output = "closed" if pruned else "input"
+    if output == "input":
+        why = "no noise at the skeleton scale"
+    elif found is not None and not found.found:
+        why = f"pruned at the threshold given, t = {params.threshold_voxels:g} voxels, though no noise was found"
+    else:
+        why = "noise at the skeleton scale removed"
+    progress.note(f"output: {'a new closed mesh' if output == 'closed' else 'the input mesh'} ({why})")
+    return output, why
+
+
+def _fine_pass_only(mesh, params, chosen, grid, progress, occupancy=None):
+    """`_denoise_unit`'s fine pass route: the voxel stage does not run (``occupancy``: the input's
+    voxels where it was voxelized to tell a solid from a surface); the input's vertices, smoothed where
+    the fine pass runs."""
+    progress.note(chosen.reason)
+    result = DenoiseResult(mask=occupancy, field=None, timings=progress.timings)
+    vertices, smoothed = _kept_vertices(mesh, None, params, grid, progress, chosen.roughness)
+    result.route = chosen.settled(fine_pass=smoothed)
+    return None, vertices, result, grid
 
 
 def _smoothed_first(mesh, params, roughness, progress):
@@ -197,18 +232,20 @@ def _smoothed_first(mesh, params, roughness, progress):
     the input's own surface wherever the voxel stage changes nothing (`marching_cubes.keep_input_surface`),
     so fine noise left on the input would stay on it."""
     progress.note(f"{roughness.describe()}: smoothed by the fine pass before the voxel stage")
-    vertices = _kept_vertices(mesh, None, params.with_(fine_pass="on"), None, progress, roughness)
+    vertices, _ = _kept_vertices(mesh, None, params.with_(fine_pass="on"), None, progress, roughness)
     return trimesh.Trimesh(vertices, np.asarray(mesh.faces), process=False)
 
 
-def _as_it_was(mesh, params, roughness, given, progress):
+def _as_it_was(mesh, params, chosen, given, progress):
     """`_denoise_unit`'s answer for a clean mesh: its own vertices, no voxel stage."""
     unused = f" (resolution {params.resolution} is not used)" if given else ""
-    progress.note(f"{roughness.describe()}: the mesh comes back as it was{unused} (--fine-pass on smooths it "
-                  "anyway, --output-mesh closed runs the voxel stage)")
+    progress.note(f"{chosen.reason}{unused} (--fine-pass on smooths it anyway, --output-mesh closed runs the voxel "
+                  "stage)")
     resolution = params.resolution or voxelize.auto_resolution(mesh)
     grid = _grid(mesh, resolution, params.with_(resolution=resolution).padding_voxels)
-    return None, np.array(mesh.vertices, dtype=np.float64), DenoiseResult(None, None, timings=progress.timings), grid
+    result = DenoiseResult(None, None, timings=progress.timings)
+    result.route = chosen.settled(reason=chosen.reason + unused)
+    return None, np.array(mesh.vertices, dtype=np.float64), result, grid
 
 
 def _resolved(mesh, params, lattice, skipped, progress, preferred=None):
@@ -236,7 +273,8 @@ def _attributes(mesh):
 
 def _kept_vertices(mesh, voxels, params, grid, progress, roughness=None):
     """The input mesh's vertices, moved: onto the denoised surface where ``voxels`` (the
-    DenoiseResult and the input occupancy, or None) says the shape changed, then by the fine pass.
+    DenoiseResult and the input occupancy, or None) says the shape changed, then by the fine pass;
+    and whether the fine pass ran.
 
     The fine pass runs with ``fine_pass`` on; with ``auto``, where vertices moved or the mesh is
     `_noisy` (``roughness``: its `output_choice.Roughness`, or None for a voxel mesh).
@@ -273,7 +311,7 @@ def _kept_vertices(mesh, voxels, params, grid, progress, roughness=None):
             progress.note(f"{folded} {'face stays' if folded == 1 else 'faces stay'} folded (turned against the "
                           "surface or without area, where noise folded the surface over itself; they may show as "
                           "dark specks): --output-mesh closed makes a new closed mesh from the voxels instead")
-    return vertices[inverse]
+    return vertices[inverse], bool(smoothing)
 
 
 def _noisy(vertices, faces, roughness, progress):
