@@ -131,11 +131,26 @@ def test_a_given_threshold_runs_the_voxel_stage_on_a_fine_noise_mesh():
     box = trimesh.creation.box((1.0, 1.0, 1.0)).subdivide().subdivide().subdivide()
     noisy = trimesh.Trimesh(box.vertices + rng.normal(0, 0.03, box.vertices.shape), box.faces)
     progress = Progress(enabled=False)
-    mesh_pipeline.denoise_mesh_detailed(noisy, DenoiseParams(threshold=12, resolution=64), progress)
+    mesh_pipeline.denoise_mesh_detailed(noisy, DenoiseParams(threshold=10, resolution=64), progress)
     assert "foreground/importance" in progress.timings  # the voxel stage ran
     progress = Progress(enabled=False)
     mesh_pipeline.denoise_mesh_detailed(noisy, DenoiseParams(resolution=64), progress)
     assert "foreground/importance" not in progress.timings  # left to itself it skips it (fine noise)
+
+
+def test_the_default_threshold_given_in_voxels_is_the_default():
+    # t = 0.1875 of 64 voxels is 12: given as 12 voxels it is the default's, and changes nothing
+    rng = np.random.default_rng(0)
+    box = trimesh.creation.box((1.0, 1.0, 1.0)).subdivide().subdivide().subdivide()
+    noisy = trimesh.Trimesh(box.vertices + rng.normal(0, 0.03, box.vertices.shape), box.faces)
+    given, _, _ = mesh_pipeline.denoise_mesh_detailed(noisy, DenoiseParams(threshold=12, resolution=64))
+    left, _, _ = mesh_pipeline.denoise_mesh_detailed(noisy, DenoiseParams(resolution=64))
+    assert np.array_equal(given.vertices, left.vertices) and given.metadata == left.metadata
+    clean = trimesh.creation.icosphere(3)
+    for params in (DenoiseParams(resolution=160, threshold=30), DenoiseParams(threshold_relative=0.1875)):
+        assert not params.threshold_given and not params.prunes_whatever_found
+        assert mesh_pipeline.denoise_mesh(clean, params).metadata["skelfilter"]["route"] == "as it was"
+    assert DenoiseParams(resolution=160, threshold=29).prunes_whatever_found
 
 
 def test_the_new_mesh_warns_when_it_drops_colours(legged):

@@ -90,7 +90,9 @@ class DenoiseParams:
         "importance threshold t on rho+ (eq. 5.6): skeleton parts whose streamline importance is "
         "below t are pruned; t must exceed the geodesic width of the noise to remove "
         "(about 2h + pi r for a ridge of height h and radius r); unset: the preset's "
-        "(default: 0.1875 of the longest side; thesis: 18 voxels)",
+        "(default: 0.1875 of the longest side; thesis: 18 voxels); a t other than the preset's prunes at t "
+        "whatever noise the estimate finds (the preset's t given in voxels, e.g. 30 at resolution 160, is the "
+        "preset's and changes nothing)",
         "voxels",
         measure=ABSOLUTE,
         limits=(1e-6, 10000),
@@ -343,9 +345,16 @@ class DenoiseParams:
 
     @property
     def threshold_given(self):
-        """Whether t was chosen by the caller rather than left to the preset."""
-        return self.threshold_relative != PRESETS[self.preset]["threshold_relative"] or (
-            self.threshold is not None and self.threshold != PRESETS[self.preset]["threshold"])
+        """Whether the caller chose a t other than the preset's. A t equal to the preset's is the
+        preset's, however it was given: as the same fraction, or (with the resolution set) as the same
+        number of voxels (``resolution=160, threshold=30`` is the default's t)."""
+        preset = PRESETS[self.preset]
+        if self.resolution is not None:
+            relative = preset["threshold_relative"]
+            return self.threshold_voxels != (relative * self.resolution if relative is not None
+                                             else float(preset["threshold"]))
+        return self.threshold_relative != preset["threshold_relative"] or (
+            self.threshold is not None and self.threshold != preset["threshold"])
 
     @property
     def prunes_whatever_found(self):
@@ -385,4 +394,6 @@ def voxel_fields_given(params):
              if f.name not in MESH_FIELDS and getattr(params, f.name) != getattr(base, f.name)]
     if "threshold" in given and "threshold_relative" in given:  # a threshold in voxels clears the relative one
         given.remove("threshold_relative")
+    if not params.threshold_given:  # the preset's t, given as it is in voxels
+        given = [name for name in given if name not in ("threshold", "threshold_relative")]
     return given
