@@ -39,47 +39,34 @@ from skelfilter.mesh.normal_filtering import (
 
 NORMAL_FILTERS = ("adaptive", "bilateral")
 # The fine pass's settings at the two ends of the noise level (`normal_roughness`), linear in between:
-# (noise level, sigma_r / noise level, normal iterations, vertex iterations). Chosen on Gaussian
-# noise of 0.2-0.7 mean edge lengths along the normals of fandisk, the rocker arm and the bunny
-# (benchmarks/literature.py); light noise on organic shapes wants few iterations and a wide range
-# kernel, heavy noise on flat faces many iterations and a narrow one.
+# (noise level, sigma_r / noise level, normal iterations, vertex iterations). Light noise on organic
+# shapes wants few iterations and a wide range kernel, heavy noise on flat faces many and a narrow one.
 SCHEDULE = ((0.122, 4.5, 4, 4), (0.2, 2.5, 16, 10))
 # Uniform-Laplacian steps of the low-pass that takes the drift out of the vertex displacement.
 DRIFT_STEPS = 10
 # Sensor noise: where the noise level reads under ``least_level`` (faces in flat pairs: a depth
 # camera's terraces) and neighbouring vertices move alike (`noise_correlation` from CORRELATED_NOISE),
-# the noise is a depth camera's waves over several vertices. It takes (sigma_r, normal iterations,
-# vertex iterations) SENSOR_SCHEDULE and a gentler drift low-pass (SENSOR_DRIFT_STEPS: the drift's
-# low-pass of 10 steps takes back most of the waves' correction). Chosen on depth-camera scans of our
-# own model (benchmarks/depth_scan.py: fandisk, a block, the bunny, the quadruped; sparse spikes on
-# fandisk and the bunny as the other class, -0.09 and -0.12 against 0.02-0.08): 0.66 of the angle to
-# the truth against 0.79 with the schedule. Held out: the shared Kinect scan 26.1 -> 9.9 degrees.
+# the noise is a depth camera's waves over several vertices: it takes (sigma_r, normal iterations,
+# vertex iterations) SENSOR_SCHEDULE and a gentler drift low-pass (SENSOR_DRIFT_STEPS), since the
+# drift's ordinary low-pass would take back most of the waves' correction.
 CORRELATED_NOISE = -0.04
 SENSOR_SCHEDULE = (0.3, 20, 50)
 SENSOR_DRIFT_STEPS = 100
 # The narrowest range kernel: a clean mesh (noise level 0) only mixes parallel normals.
 MIN_SIGMA_R = 1e-3
 # `adaptive`: the weight of the guided normals rises from 0 to 1 as the flat share of the
-# bilateral filter's normals goes from FLAT_SHARES[0] to FLAT_SHARES[1]; the guided filter's range
-# scale, iterations, and the vertex iterations it asks for. Chosen on the tuning shapes of
-# benchmarks/literature.py (fandisk, the rocker arm, the bunny; the literature's and the published
-# pairs held out): guided filtering alone halves the angle on fandisk but doubles it on the rocker
-# arm's coarse cylinders and raises it by a tenth to a fifth on the bunny.
+# bilateral filter's normals goes from FLAT_SHARES[0] to FLAT_SHARES[1] (guided filtering sharpens
+# piecewise-flat shapes and facets curved ones); the guided filter's range scale, iterations, and the
+# vertex iterations it asks for.
 FLAT_SHARES = (0.15, 0.25)
 GUIDED_SIGMA_R = 0.35
 GUIDED_ITERATIONS = 20
 GUIDED_VERTEX_ITERATIONS = 10
 # `adaptive` at a weight of 1: rounds of guided filtering (GUIDED_ROUND_ITERATIONS) of the fitted
 # mesh's normals and fitting to them, as many as GUIDED_ROUNDS at the two ends of the noise level
-# of SCHEDULE. Chosen on CAD shapes of our own (an L-bracket, a block with a bore, a star prism, a
-# nut, a sphere cut by a box, a domed star, a grooved cylinder, a gear; isotropic and irregular meshes,
-# noise along the normals and in random directions) with fandisk, the rocker arm and the bunny:
-# 2-4 rounds take 30-55 % off the angle at 0.5-0.7 mean edge lengths. Where the weight is below 1
-# the extra rounds facet the coarse fillets of curved parts (the angle of the faces next to them
-# rises by a fifth per round), so they are left out. A round is also refused, and the rounds end,
-# where it would take the vertices farther from the input than ROUND_DISTANCE times the first fit
-# did (RMS): the rounds then sharpen what is not a crease (a gear's teeth one to three edges thick:
-# +30 % E_v) or facet a sphere, while on piecewise-flat parts they stay within 1.04.
+# of SCHEDULE: they sharpen creases further. A round is refused, and the rounds end, where it would
+# take the vertices farther from the input than ROUND_DISTANCE times the first fit did (RMS): it would
+# then sharpen what is not a crease or facet a curved part.
 GUIDED_ROUNDS = (2, 4)
 GUIDED_ROUND_ITERATIONS = 10
 ROUND_DISTANCE = 1.05

@@ -60,23 +60,15 @@ CLEAN_ROUGHNESS = 5.0
 # 0.3: such light noise on such a mesh is left, rather than a clean low-poly model smoothed.
 SHAPE_CORRELATION = 0.2
 # Degrees of `surface_roughness.coarse_roughness` from which the noise may stand at the skeleton's
-# scale: the thesis' bumps measure 15.9-24.3 on every kind of mesh (marching cubes, decimated,
-# remeshed), vertex noise, depth scans and spikes 1.5-12.7 (fandisk at 0.7 edge lengths; 32 on meshes
-# of slivers, which the voxel stage then finds clean of bumps).
+# scale: between the finer noises' highest and the thesis' bumps' lowest (docs/design/decisions.md).
 SKELETON_ROUGHNESS = 14.0
 # The share of the surface that the voxel stage's noise estimate must find covered for a mesh that was
-# not made of voxels to be pruned. Set at 0.10 on the estimate's former peaks (the thesis' bumps covered
-# 0.11-0.54, vertex noise run through the voxel stage at most 0.09); the peaks counted by their dynamic
-# read 0.73 of that on the thesis' noise (median 0.179 against 0.246), so 0.08. On the routing corpus the
-# decimated and remeshed bump meshes measure 0.19-0.34 (tuning) and 0.09-0.34 (held aside: the chair's
-# decimated stripes 0.09), vertex noise 0.00 (tuning) and 0.07 (the held-aside gear): a thin margin.
+# not made of voxels to be pruned: vertex noise run through the voxel stage covers less, bumps at the
+# skeleton's scale more (the margin is thin; docs/design/decisions.md).
 SKELETON_COVERAGE = 0.08
 # The resolution (voxels along the longest side) of the voxel stage on a mesh sent there by its roughness,
-# unless given: the one the default's voxel-stage parameters were chosen at (benchmarks/quality.py: t is
-# 30 voxels, peaks count from 3). From the mesh's edge length instead (2 voxels an edge), the decimated
-# and remeshed bump meshes of the routing corpus (tuning) got 96-248 voxels and a mean face-normal angle
-# to the truth of 32.3/41.9/42.3/48.3/40.6 degrees (cube, fandisk, bunny, airplane decimated; fandisk
-# remeshed) against 22.9/32.1/41.0/50.2/30.7 at 160.
+# unless given: the one the default's voxel-stage parameters were chosen at (t is 30 voxels, peaks count
+# from 3), which the noise's scale, not the mesh's edge length, calls for.
 SKELETON_RESOLUTION = 160
 # The fine pass on a noisy mesh smooths at least as at this `normal_filtering.normal_roughness` (the least
 # the literature's noisy pairs measure is 0.115): the noise level of meshes whose faces come in flat
