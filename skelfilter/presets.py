@@ -12,11 +12,11 @@ stage only and t = 30 voxels of a 160-voxel grid, scaled with the resolution. Fi
 # What each preset sets when the field is left unset.
 _THESIS = {"stages": "both", "threshold": 18.0, "threshold_relative": None, "cap_factor": 2.0,
            "unchanged_surface": "reconstruction", "thin_radius_relative": 1.0, "output_mesh": "closed",
-           "keep_features": "off", "fine_pass": "off", "surface": "plain"}
+           "keep_features": "off", "prune": "as-told", "fine_pass": "off", "surface": "plain"}
 PRESETS = {
     "default": {"stages": "foreground", "threshold": None, "threshold_relative": 30.0 / 160.0,
                 "cap_factor": 1.0, "unchanged_surface": "input", "thin_radius_relative": 4.0 / 160.0,
-                "output_mesh": "auto", "keep_features": "on", "fine_pass": "auto",
+                "output_mesh": "auto", "keep_features": "on", "prune": "measured", "fine_pass": "auto",
                 "rho_plus_from": "ahead", "derivative_min_rho": 7.0, "surface": "smooth"},
     # §8.1.1-8.1.2 as printed: eq. 5.6 over every visited neighbour, sigma_bar wherever eq. 4.3 allows
     # and the voxel has two distinct feature points (rho >= 1; rho = 0 has no feature pair, eq. 3.6).
@@ -31,5 +31,5 @@ PRESETS = {
 # across thin walls go round the rim and take hours on a mug at 276 voxels.
 RHO_RULE_CAP_FACTOR = 4.0
 # The fields a preset fills where they are left unset ("preset" for a choice, None for a number).
-PRESET_CHOICES = ("stages", "unchanged_surface", "output_mesh", "keep_features", "fine_pass", "rho_plus_from",
-                  "surface")
+PRESET_CHOICES = ("stages", "unchanged_surface", "output_mesh", "keep_features", "prune", "fine_pass",
+                  "rho_plus_from", "surface")

@@ -208,7 +208,7 @@ def test_the_folded_faces_note_says_what_they_are_and_what_to_do(tmp_path):
                                      seed=3)[0]
     noisy.export(tmp_path / "bumpy.ply")
     r = run_cli("denoise", tmp_path / "bumpy.ply", tmp_path / "out.ply", "--resolution", "64", "--output-mesh",
-                "input", "--noise-height", "7")
+                "input", "--prune", "as-told", "--noise-height", "7")
     assert r.returncode == 0, r.stderr
     note = next(line for line in r.stderr.splitlines() if " folded (" in line)
     assert "noise" in note and "--output-mesh closed" in note, note

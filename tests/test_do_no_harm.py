@@ -87,7 +87,7 @@ def test_a_clean_thin_shape_comes_back_unchanged(request, name):
     assert any("none found" in n for n in progress.notes)
     # the pruning alone (the previous default) takes the thin parts: this is what keep_features prevents
     occupancy = voxelize(mesh, 160, 40)[0]
-    pruned = pipeline.denoise_volume(occupancy, keep_features="off").mask
+    pruned = pipeline.denoise_volume(occupancy, keep_features="off", prune="as-told").mask
     assert np.count_nonzero(occupancy & ~pruned) > 0.01 * np.count_nonzero(occupancy)
 
 
@@ -148,9 +148,23 @@ def test_the_default_threshold_given_in_voxels_is_the_default():
     assert np.array_equal(given.vertices, left.vertices) and given.metadata == left.metadata
     clean = trimesh.creation.icosphere(3)
     for params in (DenoiseParams(resolution=160, threshold=30), DenoiseParams(threshold_relative=0.1875)):
-        assert not params.threshold_given and not params.prunes_whatever_found
+        assert not params.threshold_given and not params.prunes_as_told
         assert mesh_pipeline.denoise_mesh(clean, params).metadata["skelfilter"]["route"] == "as it was"
-    assert DenoiseParams(resolution=160, threshold=29).prunes_whatever_found
+    assert DenoiseParams(resolution=160, threshold=29).threshold_given
+
+
+def test_pruning_is_a_choice_of_its_own_not_implied_by_other_parameters():
+    for given in ({"threshold": 20}, {"noise_height": 5.0}, {"keep_features": "off"}, {"prune": "measured"}):
+        assert not DenoiseParams(**given).prunes_as_told
+    assert DenoiseParams(prune="as-told").prunes_as_told and DenoiseParams(preset="thesis").prunes_as_told
+    # a clean cube: measured, whatever the threshold, noise height or features, it passes through
+    cube = np.zeros((40, 40, 40), dtype=bool)
+    cube[8:32, 8:32, 8:32] = True
+    for given in ({}, {"threshold": 4.0}, {"noise_height": 1.0}, {"keep_features": "off"}):
+        result = pipeline.denoise_volume(cube, **given)
+        assert np.array_equal(result.mask, cube) and not result.noise["foreground"].found, given
+    # as told, the pruning rounds the cube's edges
+    assert not np.array_equal(pipeline.denoise_volume(cube, prune="as-told", keep_features="off").mask, cube)
 
 
 def test_the_new_mesh_warns_when_it_drops_colours(legged):

@@ -154,7 +154,7 @@ def test_input_mode_pulls_bumps_down_with_few_folds():
     cube = trimesh.creation.box(extents=(1, 1, 1))
     noisy, masks, grid = mesh_pipeline.noisy_mesh(cube, resolution=64, p=0.004, l=1, h=4, seed=3)
     progress = Progress(enabled=False)
-    params = DenoiseParams(resolution=64, output_mesh="input", noise_height=7.0)
+    params = DenoiseParams(resolution=64, output_mesh="input", prune="as-told", noise_height=7.0)
     out, _, _ = mesh_pipeline.denoise_mesh_detailed(noisy, params, progress)
     assert np.array_equal(out.faces, noisy.faces)
     left = voxelize.voxelize_on_grid(out, grid) & masks.bumps

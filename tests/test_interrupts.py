@@ -72,7 +72,7 @@ def test_an_interrupt_in_any_step_ends_cleanly(noisy_file, tmp_path, step, outpu
     out = tmp_path / "out.ply"
     for sig, code, word in ((signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")):
         # at 48 voxels the noise (5 voxels high) is not told from relief: its height is given
-        proc = start(["denoise", noisy_file, out, "--resolution", "48", "--noise-height", "5",
+        proc = start(["denoise", noisy_file, out, "--resolution", "48", "--prune", "as-told", "--noise-height", "5",
                       "--output-mesh", output_mesh],
                      "pause", step)
         lines = wait_for(proc, f"paused in {step}")
@@ -215,7 +215,8 @@ def announced(*args):
 importance.geodesic_importance = announced
 while sys.stdin.readline():  # one run per line; both stages: two searches each
     try:
-        pipeline.denoise_mesh(noisy, resolution=128, noise_height=5, output_mesh="closed", stages="both")
+        pipeline.denoise_mesh(noisy, resolution=128, prune="as-told", noise_height=5, output_mesh="closed",
+                              stages="both")
         print("finished", flush=True)
     except KeyboardInterrupt as exc:
         print(type(exc).__name__, flush=True)

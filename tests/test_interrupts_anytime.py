@@ -29,6 +29,7 @@ START_UP = 0.15  # seconds of the interpreter's own start-up, not drawn
 SCRIPT = ('<!DOCTYPE FilterScript>\n<FilterScript>\n <filter name="Taubin Smooth"/>\n'
           ' <filter name="Skeleton Saliency Denoise">\n'
           '  <Param name="resolution" type="RichInt" value="40"/>\n'
+          '  <Param name="prune" type="RichEnum" value="2"/>\n'
           '  <Param name="noise_height" type="RichFloat" value="4"/>\n </filter>\n'
           ' <filter name="Laplacian Smooth"/>\n</FilterScript>\n')
 LAPLACIAN = """
@@ -40,7 +41,8 @@ script = "{laplacian}"
 
 # the command, and where its output goes
 COMMANDS = {
-    "denoise": (["denoise", "{noisy}", "{out}/out.ply", "--resolution", "48", "--noise-height", "5"], "out.ply"),
+    "denoise": (["denoise", "{noisy}", "{out}/out.ply", "--resolution", "48", "--prune", "as-told", "--noise-height",
+                 "5"], "out.ply"),
     "run-script": (["run-script", "{script}", "{noisy}", "{out}/out.ply"], "out.ply"),
     "compare": (["compare", "{config}", "--out", "{out}/report"], "report"),
     "batch": (["batch", "{noisy}", "--out", "{out}/batch", "--workers", "1", "--resolution", "48"], "batch"),

@@ -38,7 +38,8 @@ def chamfer(a, b):
 def test_a_cloud_gives_the_mesh_routes_result(bumpy, tmp_path):
     noisy, grid, path = bumpy
     assert formats.input_kind(path) == "points"
-    params = DenoiseParams(resolution=RESOLUTION, keep_features="off")  # the route, not the noise decision, is tested
+    # the route, not the noise decision, is tested
+    params = DenoiseParams(resolution=RESOLUTION, keep_features="off", prune="as-told")
     denoise_file.denoise_file(path, tmp_path / "out.ply", params)
     out = mesh_files.load_mesh(tmp_path / "out.ply")
     from_mesh = mesh_pipeline.denoise_mesh(noisy, params.with_(output_mesh="closed"))

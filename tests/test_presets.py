@@ -81,7 +81,7 @@ def test_default_removes_more_stripes_than_the_thesis(stripes_128, name, left_de
     # the default's pruning, before what is no noise comes back (keep_features, tested below and in
     # tests/test_feature_restore.py)
     noise = stripes_128[name]
-    left, lost, new = figures(noise, denoise_volume(noise.noisy, keep_features="off").mask)
+    left, lost, new = figures(noise, denoise_volume(noise.noisy, keep_features="off", prune="as-told").mask)
     thesis_left, _, thesis_new = figures(noise, denoise_volume(noise.noisy, preset="thesis").mask)
     assert left <= left_default and lost <= lost_default
     assert new <= 1e-4  # the stage never adds material (Lemma 7); only specks of air get filled
@@ -92,7 +92,7 @@ def test_default_passes_a_clean_cube_through():
     cube = voxelize(trimesh.creation.box((1.0, 1.0, 1.0)), 128, 12)[0]
     result = denoise_volume(cube)
     assert np.array_equal(result.mask, cube) and not result.noise["foreground"].found
-    mask = denoise_volume(cube, keep_features="off").mask  # the pruning alone rounds the edges a little
+    mask = denoise_volume(cube, keep_features="off", prune="as-told").mask  # the pruning alone rounds the edges
     assert not (mask & ~cube).any()
     assert (cube & ~mask).sum() / cube.sum() <= 0.001  # measured 0.0007: the outer edge rows
 
@@ -121,8 +121,8 @@ def test_default_keeps_a_thin_wall_the_thesis_rule_would_prune():
     x = np.zeros((160, 100, 160), bool)
     x[8:152, 8:92, 8:28] = True
     x[8:152, 46:55, 28:152] = True
-    kept_default = denoise_volume(x, keep_features="off").mask
-    kept_off = denoise_volume(x, keep_features="off", thin_radius_relative=1.0).mask
+    kept_default = denoise_volume(x, keep_features="off", prune="as-told").mask
+    kept_off = denoise_volume(x, keep_features="off", prune="as-told", thin_radius_relative=1.0).mask
     wall = np.zeros_like(x)
     wall[8:152, 46:55, 28:152] = True
     lost_default = (wall & ~kept_default).sum() / wall.sum()

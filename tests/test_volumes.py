@@ -20,7 +20,7 @@ from skelfilter.params import DenoiseParams, VolumeParams
 
 # A single bump is no noise spread over the surface: the default keeps it (keep_features); these tests
 # are about the volume's geometry, so they prune as told.
-PRUNE = DenoiseParams(keep_features="off")
+PRUNE = DenoiseParams(keep_features="off", prune="as-told")
 
 SIZE = 64.0  # mm, the phantom's field of view
 RADIUS, BUMP = 20.0, 2.0  # a 40 mm ball with a 2 mm half-ball bump on it
@@ -53,7 +53,7 @@ def mostly_gone(mask, bump):
                                      (0.5, 0.5, 1.5), (1.5, 0.5, 0.5), (1.0, 1.0, 0.5)])
 def test_a_bump_of_the_same_physical_size_goes_whatever_the_spacing(spacing):
     mask, ball, bump = phantom(spacing)
-    result = pipeline.denoise_volume(mask, spacing=spacing, keep_features="off")
+    result = pipeline.denoise_volume(mask, spacing=spacing, keep_features="off", prune="as-told")
     assert mostly_gone(result.mask, bump)
     # The ball stays; what goes is the stair-step shell of its digitization (under a voxel deep).
     assert (ball & result.mask).sum() >= 0.93 * ball.sum() and result.mask.shape == mask.shape
@@ -82,7 +82,7 @@ def test_nifti_out_keeps_header_and_affine_and_mesh_lies_on_the_mask_in_world(ni
     before = nifti.read_bytes()
     for name in ("out.nii.gz", "out.ply"):
         r = subprocess.run([sys.executable, "-m", "skelfilter.cli", "denoise", str(nifti), str(tmp_path / name),
-                            "--keep-features", "off"],
+                            "--keep-features", "off", "--prune", "as-told"],
                            capture_output=True, text=True, timeout=600)
         assert r.returncode == 0, r.stderr
     assert nifti.read_bytes() == before
@@ -267,7 +267,7 @@ def test_python_api_takes_an_affine():
     box[5:25, 5:25, 5:20] = True
     affine = np.diag([0.5, 0.5, 1.0, 1.0])
     affine[:3, 3] = (100.0, 0.0, -50.0)
-    result = skelfilter.denoise_volume(box, affine=affine, keep_features="off")
+    result = skelfilter.denoise_volume(box, affine=affine, keep_features="off", prune="as-told")
     # A clean box passes through but for a rounding of its edges (a voxel's width: the skeleton
     # sheets that reach the edges are pruned).
     on_faces = [box & ~ndimage.binary_erosion(box, np.ones(shape)) for shape in ((3, 1, 1), (1, 3, 1), (1, 1, 3))]

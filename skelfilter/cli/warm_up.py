@@ -30,8 +30,9 @@ def compile_kernels():
     worker_threads.start()
     clean = mesh_files.load_mesh(sample_path())
     noisy = mesh_pipeline.noisy_mesh(clean, NoiseParams(resolution=RESOLUTION, seed=1))[0]
-    # A given noise height: at this size no noise is found, and the features are given back by it.
-    for params in (DenoiseParams(resolution=RESOLUTION, output_mesh="closed", noise_height=2.0),
+    # Pruned as told with a given noise height: at this size no noise is found, and the features are
+    # given back by it.
+    for params in (DenoiseParams(resolution=RESOLUTION, output_mesh="closed", prune="as-told", noise_height=2.0),
                    DenoiseParams(resolution=RESOLUTION, output_mesh="input"),
                    DenoiseParams(resolution=RESOLUTION, preset="thesis")):
         mesh_pipeline.denoise_mesh(noisy, params)

@@ -66,7 +66,7 @@ def denoise_padded(volume, params, progress, foreground=None):
             if foreground is None:
                 foreground = stage_at_noise_scale(current, params, "bumps", progress)
             stage, estimate = foreground
-            if params.keep_features == "on":
+            if _measures_noise(params):
                 result.noise["foreground"] = keep_features(current, stage, params, "bumps", progress, estimate)
         result.stages["foreground"] = stage
         current = stage.mask
@@ -86,7 +86,7 @@ def denoise_padded(volume, params, progress, foreground=None):
         _fill_outside(background, (slice(1, -1),) * 3, False)
         with progress.stage("background"):
             stage, estimate = stage_at_noise_scale(background, params, "dents", progress)
-            if params.keep_features == "on":
+            if _measures_noise(params):
                 result.noise["background"] = keep_features(background, stage, params, "dents", progress, estimate)
         del background
         result.stages["background"] = stage
@@ -126,16 +126,16 @@ def stage_at_noise_scale(stage_set, params, side, progress):
     the noise estimate of its pruning (``side``: ``"bumps"`` or ``"dents"``; None where the stage
     prunes as told).
 
-    With keep_features on and nothing given that prunes as told (`DenoiseParams.prunes_whatever_found`),
-    a pruning that keeps under `LEAST_KEPT` of the set and finds no noise on what it removed
-    (`noise_estimate.estimate_noise`) is done again on the same skeleton and importance at t / 2, then
+    With ``prune`` measured (`DenoiseParams.prunes_as_told` false), a pruning that keeps under
+    `LEAST_KEPT` of the set and finds no noise on what it removed (`noise_estimate.estimate_noise`) is
+    done again on the same skeleton and importance at t / 2, then
     t / 4 (`FINER_THRESHOLDS`). On a chair or a stool the pruning at t keeps a few percent (the seat's
     core): every leg and slat then stands higher than noise above it, none of the bumps on them is
     counted, and the input passed through whole with its noise. The finer pruning keeps the legs' and
     seat's cores, so the bumps on them are measured and taken off; a clean thin shape finds no noise at
     the finer thresholds either and passes through as before.
     """
-    if params.prunes_whatever_found:
+    if params.prunes_as_told:
         return saliency_stage(stage_set, params, progress), None
     def measured(stage):
         with progress.step("noise estimate"):
@@ -170,20 +170,22 @@ def keep_features(stage_set, stage, params, side, progress, estimate=None):
     (`feature_restore.features_by_extent`) but for the noise on them, which no straight run of the
     shape longer than the noise passes through (`feature_restore.along_lines`); and so do whatever
     joined pieces that the pruning cut apart (`feature_restore.connections`) and the skin of edges
-    away from the noise (`feature_restore.skin_far_from_noise`). Where no noise is found and neither
-    the noise height nor the threshold was given, everything comes back: the input passes through.
-    Returns the `noise_estimate.NoiseEstimate`, also told through ``progress``.
+    away from the noise (`feature_restore.skin_far_from_noise`). With ``keep_features`` off nothing
+    comes back. Where no noise is found and ``prune`` is measured, everything comes back: the input
+    passes through. Returns the `noise_estimate.NoiseEstimate`, also told through ``progress``.
     """
     if estimate is None:
         with progress.step("noise estimate"):
             estimate = noise_estimate.estimate_noise(stage_set, stage.mask, params.resolution, side)
     height = _restored_height(params, estimate)
     given = f"; removed parts standing over {height:g} voxels (the noise height given) come back" \
-        if params.noise_height is not None else ""
+        if params.noise_height is not None and height is not None else ""
     progress.note(f"noise: {estimate.describe()}{given}")
     with progress.step("features kept"):
         if height is None:
             restored = stage_set & ~stage.mask
+        elif params.keep_features == "off":
+            return estimate
         else:
             restored = feature_restore.features_by_extent(stage_set, stage.mask, height)
             restored = feature_restore.along_lines(stage_set, restored, height)
@@ -194,21 +196,27 @@ def keep_features(stage_set, stage, params, side, progress, estimate=None):
     return estimate
 
 
+def _measures_noise(params):
+    """Whether a stage's noise is measured after its pruning (`keep_features`): to give back what is no
+    noise, or (``prune`` measured) to tell whether there is any."""
+    return params.keep_features == "on" or not params.prunes_as_told
+
+
 def passes_through(params, result):
-    """Whether the stages gave their input back: no stage found noise and none prunes whatever it finds."""
-    return not params.prunes_whatever_found and not any(e.found for e in result.noise.values())
+    """Whether the stages gave their input back: ``prune`` measured, and no stage found noise."""
+    return not params.prunes_as_told and not any(e.found for e in result.noise.values())
 
 
 def _restored_height(params, estimate):
     """Voxels: the height from which a removed part is a feature, or None where the stage passes its
-    input through (no noise found, neither the noise height nor the threshold given)."""
+    input through (``prune`` measured, and no noise found)."""
+    if not estimate.found and not params.prunes_as_told:
+        return None
     if params.noise_height is not None:
         return params.noise_height
     if estimate.found:
         return estimate.height + feature_restore.MARGIN
-    if params.threshold_given:
-        return noise_estimate.HIGHEST_NOISE * params.resolution
-    return None
+    return noise_estimate.HIGHEST_NOISE * params.resolution
 
 
 def _restore(mask, field, restored):
@@ -367,13 +375,13 @@ def _fine_pass_then_stages(cubic, params, progress, sampled=None):
     valleys between them, and merged bumps are kept): the fine pass is undone and the stages run on
     the input as it was. Where they find nothing on the input (the noise stood on thin parts, which
     the pruning took whole), the result after the fine pass is kept: the input would pass through
-    with all its noise. Stages that prune whatever they find (`DenoiseParams.prunes_whatever_found`)
+    with all its noise. Stages that prune as told (`DenoiseParams.prunes_as_told`)
     run on the input directly.
     """
     _cubic_params(cubic, params)  # too large a grid is refused before the fine pass runs
-    if params.fine_pass != "off" and params.prunes_whatever_found:
+    if params.fine_pass != "off" and params.prunes_as_told:
         progress.note("fine pass: not run, the stages prune at the skeleton's scale whatever the noise "
-                      "(keep_features off, or the threshold or the noise height given)")
+                      "(prune as-told)")
     elif params.fine_pass != "off":
         with progress.step("fine pass"):
             smoothed, fine = volume_fine_pass.fine_pass(cubic, sampled)

@@ -208,7 +208,7 @@ def _auto_output(params, result, roughness, progress):
     if output == "input":
         why = "no noise at the skeleton scale"
     elif found is not None and not found.found:
-        why = f"pruned at the threshold given, t = {params.threshold_voxels:g} voxels, though no noise was found"
+        why = f"pruned as told at t = {params.threshold_voxels:g} voxels (prune as-told), though no noise was found"
     else:
         why = "noise at the skeleton scale removed"
     progress.note(f"output: {'a new closed mesh' if output == 'closed' else 'the input mesh'} ({why})")

@@ -90,9 +90,9 @@ class DenoiseParams:
         "importance threshold t on rho+ (eq. 5.6): skeleton parts whose streamline importance is "
         "below t are pruned; t must exceed the geodesic width of the noise to remove "
         "(about 2h + pi r for a ridge of height h and radius r); unset: the preset's "
-        "(default: 0.1875 of the longest side; thesis: 18 voxels); a t other than the preset's prunes at t "
-        "whatever noise the estimate finds (the preset's t given in voxels, e.g. 30 at resolution 160, is the "
-        "preset's and changes nothing)",
+        "(default: 0.1875 of the longest side; thesis: 18 voxels); the preset's t given in voxels (30 at "
+        "resolution 160) is the preset's and changes nothing; whether the stages prune at t whatever the "
+        "noise is `prune`'s",
         "voxels",
         measure=ABSOLUTE,
         limits=(1e-6, 10000),
@@ -126,9 +126,19 @@ class DenoiseParams:
         "removed part that stands higher than the noise (a leg, a wing, a fin, a rim), but for the "
         "noise on it, which no straight run of the shape longer than the noise passes through, and "
         "whatever joined pieces the pruning cut apart; where no noise is found the input passes "
-        "through unchanged; 'off': the pruning as it is; 'preset': the preset's (default: on; "
+        "through unchanged (with `prune` measured); 'off': the pruning as it is; 'preset': the preset's (default: on; "
         "thesis: off)",
         choices=("preset", "on", "off"),
+    )
+    prune: str = _p(
+        "preset",
+        "Prune",
+        "'measured': each stage measures the noise on what its pruning at t removes first, and prunes only "
+        "where it finds noise at the skeleton's scale (where it finds none the input passes through "
+        "unchanged; a volume's fine pass runs before it); 'as-told': prune at t whatever the noise; "
+        "'preset': the preset's (default: measured; thesis: as-told)",
+        choices=("preset", "measured", "as-told"),
+        summary="'measured' (default): prune only where noise is found; 'as-told': prune at t whatever the noise",
     )
     noise_height: float | None = _p(
         None,
@@ -345,9 +355,10 @@ class DenoiseParams:
 
     @property
     def threshold_given(self):
-        """Whether the caller chose a t other than the preset's. A t equal to the preset's is the
-        preset's, however it was given: as the same fraction, or (with the resolution set) as the same
-        number of voxels (``resolution=160, threshold=30`` is the default's t)."""
+        """Whether the caller chose a t other than the preset's (a voxel-stage choice: see
+        `voxel_fields_given`). A t equal to the preset's is the preset's, however it was given: as the same
+        fraction, or (with the resolution set) as the same number of voxels (``resolution=160,
+        threshold=30`` is the default's t)."""
         preset = PRESETS[self.preset]
         if self.resolution is not None:
             relative = preset["threshold_relative"]
@@ -357,10 +368,10 @@ class DenoiseParams:
             self.threshold is not None and self.threshold != preset["threshold"])
 
     @property
-    def prunes_whatever_found(self):
-        """Whether the stages prune whatever the noise estimate says: keep_features off, or the noise
-        height or the threshold given (else a stage that finds no noise passes its input through)."""
-        return self.keep_features == "off" or self.noise_height is not None or self.threshold_given
+    def prunes_as_told(self):
+        """Whether the stages prune at t whatever the noise (``prune`` as-told); else a stage that finds
+        no noise passes its input through."""
+        return self.prune == "as-told"
 
     @property
     def thin_radius_voxels(self):

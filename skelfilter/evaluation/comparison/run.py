@@ -182,7 +182,7 @@ def threshold_sweep(name, noise, config, method, say):
     rows = []
     for t in config.sweep_thresholds:
         start = time.perf_counter()
-        params = base.with_(threshold=t, threshold_relative=None,
+        params = base.with_(threshold=t, threshold_relative=None, prune="as-told",
                             geodesic_cap=None if base.geodesic_cap is None else max(base.geodesic_cap, 2 * t))
         mask = pipeline.denoise_volume(noise.noisy, params, Progress(enabled=False, shield=True)).mask
         dents = noise.dents
