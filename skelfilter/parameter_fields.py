@@ -102,3 +102,46 @@ def build(cls, base=None, **values):
     if not values:
         return base
     return base.with_(**values) if hasattr(base, "with_") else replace(base, **values)
+
+
+def _type_name(annotation):
+    """``float | None`` -> ``float, optional``."""
+    text = annotation if isinstance(annotation, str) else getattr(annotation, "__name__", str(annotation))
+    parts = [p.strip() for p in str(text).split("|")]
+    optional = "None" in parts
+    name = " or ".join(p for p in parts if p != "None")
+    return f"{name}, optional" if optional else name
+
+
+def parameter_entries(cls):
+    """numpydoc entries, one per field of the parameter dataclass ``cls``: its type, default, label,
+    unit, range or choices and description, as the table gives them."""
+    lines = []
+    for f in fields(cls):
+        meta = f.metadata
+        if "label" not in meta:
+            continue
+        bounds = []
+        if meta.get("unit"):
+            bounds.append(meta["unit"])
+        if "limits" in meta:
+            bounds.append(f"{meta['limits'][0]:g} to {meta['limits'][1]:g}")
+        if "choices" in meta:
+            bounds.append("one of " + ", ".join(repr(c) for c in meta["choices"]))
+        detail = f" ({'; '.join(bounds)})" if bounds else ""
+        lines += [f"{f.name} : {_type_name(f.type)}, default {f.default!r}",
+                  f"    {meta['label']}{detail}: {meta['help']}"]
+    return lines
+
+
+def with_parameter_entries(function, cls, indent="    "):
+    """``function`` with the fields of ``cls`` (`parameter_entries`) added to its docstring's Parameters
+    section, after its own entries: every keyword it takes is documented from the one table."""
+    if function.__doc__ is None:  # python -OO
+        return function
+    lines = function.__doc__.split("\n")
+    start = lines.index(f"{indent}Parameters")
+    end = next(i for i in range(start + 2, len(lines)) if not lines[i].strip())
+    lines[end:end] = [indent + line for line in parameter_entries(cls)]
+    function.__doc__ = "\n".join(lines)
+    return function

@@ -11,6 +11,7 @@ a shape in two, or cuts a piece of it loose, removed what joined them: that come
 import numpy as np
 from scipy import ndimage
 
+from skelfilter.core import noise_estimate
 from skelfilter.core.distance import distance_transform
 from skelfilter.core.line_opening import line_opening
 from skelfilter.core.neighbourhood import OFFSETS_26, bounding_box, flat_offsets, push
@@ -218,3 +219,65 @@ def skin_far_from_noise(stage_set, pruned, reach, tall=2.0):
     out[box] = removed[box] & (distance_transform(~noise) > reach)
     return out
 
+
+def keep_features(stage_set, stage, params, side, progress, estimate=None):
+    """Give back what the pruning of ``stage_set`` removed that is no noise, in ``stage`` (in place).
+
+    The noise is measured on what the pruning removed (`noise_estimate.estimate_noise`; ``estimate``
+    where the caller measured it already), unless ``params.noise_height`` gives its height. Removed
+    parts standing higher than the noise (with `MARGIN`) come back (`features_by_extent`) but for the
+    noise on them, which no straight run of the shape longer than the noise passes through
+    (`along_lines`); and so do whatever joined pieces that the pruning cut apart (`connections`) and the
+    skin of edges away from the noise (`skin_far_from_noise`). With ``keep_features`` off nothing
+    comes back. Where no noise is found and ``prune`` is measured, everything comes back: the input
+    passes through. Returns the `noise_estimate.NoiseEstimate`, also told through ``progress``.
+    """
+    if estimate is None:
+        with progress.step("noise estimate"):
+            estimate = noise_estimate.estimate_noise(stage_set, stage.mask, params.resolution, side)
+    height = _restored_height(params, estimate)
+    given = f"; removed parts standing over {height:g} voxels (the noise height given) come back" \
+        if params.noise_height is not None and height is not None else ""
+    progress.note(f"noise: {estimate.describe()}{given}")
+    with progress.step("features kept"):
+        if height is None:
+            restored = stage_set & ~stage.mask
+        elif params.keep_features == "off":
+            return estimate
+        else:
+            restored = features_by_extent(stage_set, stage.mask, height)
+            restored = along_lines(stage_set, restored, height)
+            restored |= connections(stage_set, stage.mask | restored, height)
+            restored |= skin_far_from_noise(stage_set, stage.mask | restored, SKIN_REACH)
+        _restore(stage.mask, stage.field, restored)
+    return estimate
+
+
+def measures_noise(params):
+    """Whether a stage's noise is measured after its pruning (`keep_features`): to give back what is no
+    noise, or (``prune`` measured) to tell whether there is any."""
+    return params.keep_features == "on" or not params.prunes_as_told
+
+
+def _restored_height(params, estimate):
+    """Voxels: the height from which a removed part is a feature, or None where the stage passes its
+    input through (``prune`` measured, and no noise found)."""
+    if not estimate.found and not params.prunes_as_told:
+        return None
+    if params.noise_height is not None:
+        return params.noise_height
+    if estimate.found:
+        return estimate.height + MARGIN
+    return noise_estimate.HIGHEST_NOISE * params.resolution
+
+
+def _restore(mask, field, restored):
+    """Add ``restored`` to the reconstruction ``mask`` and its ``field`` (in place): inside at half a
+    voxel from the surface, which lies on the voxels' faces as for every voxel of the input."""
+    box = bounding_box(restored, margin=1)
+    if box is None:
+        return
+    mask |= restored
+    np.maximum(field, 0.5, out=field, where=restored)
+    rim = ndimage.binary_dilation(restored[box], structure=CUBE) & ~mask[box]
+    np.maximum(field[box], -0.5, out=field[box], where=rim)

@@ -8,14 +8,13 @@ Meshes go through :mod:`skelfilter.mesh.pipeline`, which voxelizes them and runs
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import ndimage
 
 from skelfilter.core import edt_filters, feature_restore, noise_estimate, pruning_rules, surface_field, volume_fine_pass
 from skelfilter.core import spacing as voxel_spacing
 from skelfilter.core.neighbourhood import bounding_box
 from skelfilter.core.stage import pruned_stage, saliency_stage, skeleton_fields
 from skelfilter.errors import InputError, ParameterError, ResourceError
-from skelfilter.parameter_fields import build, limits_of
+from skelfilter.parameter_fields import build, limits_of, with_parameter_entries
 from skelfilter.params import DenoiseParams, VolumeParams
 from skelfilter.runtime import worker_threads
 from skelfilter.runtime.memory import check_grid_fits
@@ -66,8 +65,9 @@ def denoise_padded(volume, params, progress, foreground=None):
             if foreground is None:
                 foreground = stage_at_noise_scale(current, params, "bumps", progress)
             stage, estimate = foreground
-            if _measures_noise(params):
-                result.noise["foreground"] = keep_features(current, stage, params, "bumps", progress, estimate)
+            if feature_restore.measures_noise(params):
+                result.noise["foreground"] = feature_restore.keep_features(current, stage, params, "bumps", progress,
+                                                                           estimate)
         result.stages["foreground"] = stage
         current = stage.mask
         field = stage.field
@@ -86,8 +86,9 @@ def denoise_padded(volume, params, progress, foreground=None):
         _fill_outside(background, (slice(1, -1),) * 3, False)
         with progress.stage("background"):
             stage, estimate = stage_at_noise_scale(background, params, "dents", progress)
-            if _measures_noise(params):
-                result.noise["background"] = keep_features(background, stage, params, "dents", progress, estimate)
+            if feature_restore.measures_noise(params):
+                result.noise["background"] = feature_restore.keep_features(background, stage, params, "dents",
+                                                                           progress, estimate)
         del background
         result.stages["background"] = stage
         # Filling dents never reaches past the shape's bounding box; outside
@@ -161,74 +162,9 @@ def stage_at_noise_scale(stage_set, params, side, progress):
     return stage, estimate
 
 
-def keep_features(stage_set, stage, params, side, progress, estimate=None):
-    """Give back what the pruning of ``stage_set`` removed that is no noise, in ``stage`` (in place).
-
-    The noise is measured on what the pruning removed (`noise_estimate.estimate_noise`; ``estimate``
-    where the caller measured it already), unless ``params.noise_height`` gives its height. Removed
-    parts standing higher than the noise (with `feature_restore.MARGIN`) come back
-    (`feature_restore.features_by_extent`) but for the noise on them, which no straight run of the
-    shape longer than the noise passes through (`feature_restore.along_lines`); and so do whatever
-    joined pieces that the pruning cut apart (`feature_restore.connections`) and the skin of edges
-    away from the noise (`feature_restore.skin_far_from_noise`). With ``keep_features`` off nothing
-    comes back. Where no noise is found and ``prune`` is measured, everything comes back: the input
-    passes through. Returns the `noise_estimate.NoiseEstimate`, also told through ``progress``.
-    """
-    if estimate is None:
-        with progress.step("noise estimate"):
-            estimate = noise_estimate.estimate_noise(stage_set, stage.mask, params.resolution, side)
-    height = _restored_height(params, estimate)
-    given = f"; removed parts standing over {height:g} voxels (the noise height given) come back" \
-        if params.noise_height is not None and height is not None else ""
-    progress.note(f"noise: {estimate.describe()}{given}")
-    with progress.step("features kept"):
-        if height is None:
-            restored = stage_set & ~stage.mask
-        elif params.keep_features == "off":
-            return estimate
-        else:
-            restored = feature_restore.features_by_extent(stage_set, stage.mask, height)
-            restored = feature_restore.along_lines(stage_set, restored, height)
-            restored |= feature_restore.connections(stage_set, stage.mask | restored, height)
-            restored |= feature_restore.skin_far_from_noise(stage_set, stage.mask | restored,
-                                                            feature_restore.SKIN_REACH)
-        _restore(stage.mask, stage.field, restored)
-    return estimate
-
-
-def _measures_noise(params):
-    """Whether a stage's noise is measured after its pruning (`keep_features`): to give back what is no
-    noise, or (``prune`` measured) to tell whether there is any."""
-    return params.keep_features == "on" or not params.prunes_as_told
-
-
 def passes_through(params, result):
     """Whether the stages gave their input back: ``prune`` measured, and no stage found noise."""
     return not params.prunes_as_told and not any(e.found for e in result.noise.values())
-
-
-def _restored_height(params, estimate):
-    """Voxels: the height from which a removed part is a feature, or None where the stage passes its
-    input through (``prune`` measured, and no noise found)."""
-    if not estimate.found and not params.prunes_as_told:
-        return None
-    if params.noise_height is not None:
-        return params.noise_height
-    if estimate.found:
-        return estimate.height + feature_restore.MARGIN
-    return noise_estimate.HIGHEST_NOISE * params.resolution
-
-
-def _restore(mask, field, restored):
-    """Add ``restored`` to the reconstruction ``mask`` and its ``field`` (in place): inside at half a
-    voxel from the surface, which lies on the voxels' faces as for every voxel of the input."""
-    box = bounding_box(restored, margin=1)
-    if box is None:
-        return
-    mask |= restored
-    np.maximum(field, 0.5, out=field, where=restored)
-    rim = ndimage.binary_dilation(restored[box], structure=np.ones((3, 3, 3), dtype=bool)) & ~mask[box]
-    np.maximum(field[box], -0.5, out=field[box], where=rim)
 
 
 def _fill_outside(volume, box, value):
@@ -249,8 +185,10 @@ def denoise_volume(volume, params=None, progress=None, spacing=None, affine=None
     volume : (nx, ny, nz) array_like of bool
         The noisy shape X.
     params : DenoiseParams, optional
-        Parameters; keyword arguments override single fields
-        (``denoise_volume(v, threshold=12)``).
+        The parameters; the keywords below override its fields (``denoise_volume(v, threshold=12)``;
+        a field left unset takes the preset's).
+    progress : Progress, optional
+        Step timings and the notes that say what was chosen (printed when enabled).
     spacing : sequence of 3 floats, optional
         Voxel size along each axis (e.g. millimetres). Anisotropic voxels are resampled to cubic
         ones of the finest spacing for the pipeline and the result back (:mod:`skelfilter.core.spacing`);
@@ -269,7 +207,19 @@ def denoise_volume(volume, params=None, progress=None, spacing=None, affine=None
         pipeline reads: with the foreground stage alone, the set's bounding box widened by
         `CROP_MARGIN` voxels) and step timings.
         The volume's grid is used as it is: ``resolution`` is taken as the longest side of the
-        set voxels' bounding box, so a relative threshold is relative to the shape's size.
+        set voxels' bounding box, so a relative threshold is relative to the shape's size. With the
+        default, a volume in which no stage finds noise at the skeleton's scale comes back unchanged
+        (``noise`` says what each stage found; ``fine_noise`` what the volume fine pass smoothed).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skelfilter import denoise_volume
+    >>> cube = np.zeros((40, 40, 40), dtype=bool)
+    >>> cube[8:32, 8:32, 8:32] = True
+    >>> result = denoise_volume(cube)
+    >>> bool((result.mask == cube).all()), result.noise["foreground"].found
+    (True, False)
 
     References
     ----------
@@ -284,6 +234,9 @@ def denoise_volume(volume, params=None, progress=None, spacing=None, affine=None
     except MemoryError:
         raise ResourceError(f"out of memory denoising a volume of shape {np.shape(volume)}; resample it to "
                             "fewer voxels, or free memory") from None
+
+
+with_parameter_entries(denoise_volume, DenoiseParams)
 
 
 def _denoise_volume(volume, params, progress, spacing, affine, overrides):

@@ -12,8 +12,8 @@ from skelfilter.errors import InputError, OpenSurfaceError, ParameterError, Reso
 from skelfilter.io.mesh_files import validate_mesh
 from skelfilter.mesh import fine_pass, marching_cubes, output_choice, route, vertex_projection, voxelize
 from skelfilter.mesh.frame import Frame
-from skelfilter.parameter_fields import build
-from skelfilter.params import NoiseParams, voxel_fields_given
+from skelfilter.parameter_fields import build, with_parameter_entries
+from skelfilter.params import DenoiseParams, NoiseParams, voxel_fields_given
 from skelfilter.runtime import worker_threads
 from skelfilter.runtime.memory import check_grid_fits
 from skelfilter.runtime.progress import Progress
@@ -58,8 +58,10 @@ def denoise_mesh(mesh, params=None, progress=None, **overrides):
     Parameters
     ----------
     mesh : trimesh.Trimesh or (vertices, faces)
-    params : DenoiseParams, optional; keyword arguments override its fields (`skelfilter.params`
-        lists them with their units, ranges and defaults).
+    params : DenoiseParams, optional
+        The parameters; the keywords below override its fields (a field left unset takes the preset's).
+    progress : Progress, optional
+        Step timings and the notes that say what was chosen (printed when enabled).
 
     Returns
     -------
@@ -84,6 +86,9 @@ def denoise_mesh(mesh, params=None, progress=None, **overrides):
            Visualization in Medicine and Life Sciences II, Springer, 2012.
     """
     return denoise_mesh_detailed(mesh, params, progress, **overrides)[0]
+
+
+with_parameter_entries(denoise_mesh, DenoiseParams)
 
 
 def denoise_mesh_detailed(mesh, params=None, progress=None, **overrides):
