@@ -41,7 +41,7 @@ lint: setup
 	$(PYTHON) -m ruff check .
 
 bench: setup
-	$(PYTHON) benchmarks/bench_pipeline.py
+	$(PYTHON) -m benchmarks.bench_pipeline
 
 docs: setup
 	$(PYTHON) -m skelfilter.cli filters --markdown > docs/filters.md

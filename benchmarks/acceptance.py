@@ -2,7 +2,7 @@
 
 The project's own quality benchmark, which chose the default preset, is ``benchmarks/quality.py``.
 
-    python benchmarks/acceptance.py [--resolution 160] [--json out.json]
+    python -m benchmarks.acceptance [--resolution 160] [--json out.json]
 
 Noise removal: the thesis' stripes (p = 0.014, r = 2.1, h = 3, l = 6) on a cube and on fandisk,
 with and without dents, fixed seeds, scored voxel by voxel on the noise grid:

@@ -1,6 +1,6 @@
 """Many files: ``skelfilter batch`` on a local Dask cluster against one file after another in one process.
 
-    python benchmarks/batch.py [--files 40] [--resolution 128] [--workers 1 2 4]
+    python -m benchmarks.batch [--files 40] [--resolution 128] [--workers 1 2 4]
 
 Makes ``--files`` noisy meshes (the embedded fandisk with the thesis' stripes, one seed each), then
 denoises them (1) one after another in this process, numba on every core, and (2) with
@@ -12,18 +12,15 @@ cluster's overhead costs, not what more machines would give.
 
 import argparse
 import os
-import sys
 import tempfile
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-
-from skelfilter.io import mesh_files as io  # noqa: E402
-from skelfilter.io.samples import sample_path  # noqa: E402
-from skelfilter.jobs import batch  # noqa: E402
-from skelfilter.jobs import denoise_file as files  # noqa: E402
-from skelfilter.mesh import pipeline as mesh_pipeline  # noqa: E402
-from skelfilter.params import DenoiseParams, NoiseParams  # noqa: E402
+from skelfilter.io import mesh_files as io
+from skelfilter.io.samples import sample_path
+from skelfilter.jobs import batch
+from skelfilter.jobs import denoise_file as files
+from skelfilter.mesh import pipeline as mesh_pipeline
+from skelfilter.params import DenoiseParams, NoiseParams
 
 
 def main():

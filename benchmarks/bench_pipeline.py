@@ -1,7 +1,7 @@
 """Per-step time and peak memory of the pipeline on fandisk, mesh file to mesh file; and the
 commands a user runs first: a clean mesh, an everyday scan, a volume, the import.
 
-    python benchmarks/bench_pipeline.py [--sizes 128 192 256 384] [--with-512] [--json out.json]
+    python -m benchmarks.bench_pipeline [--sizes 128 192 256 384] [--with-512] [--json out.json]
                                         [--volume-size 256] [--everyday-mesh PATH] [--no-commands]
                                         [--repeat 3]
 

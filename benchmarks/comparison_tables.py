@@ -1,7 +1,7 @@
 """The tables of ``docs/comparison.md`` from a ``skelfilter compare`` run's ``results.json``.
 
     skelfilter compare --out comparison-output
-    python benchmarks/comparison_tables.py comparison-output/results.json
+    python -m benchmarks.comparison_tables comparison-output/results.json
 
 One table per measure (models as columns, methods as rows, the best filter in bold; the noisy input
 and the clean mesh are references and do not compete), then what skelfilter ran on each model.

@@ -18,8 +18,9 @@ the routing corpus (``benchmarks/routing_corpus.py``) as a stand-in for real sen
 
 import numpy as np
 import trimesh
-from range_scan import orthographic_rays
 from scipy import ndimage
+
+from benchmarks.range_scan import orthographic_rays
 
 
 def depth_scan(mesh, view=(0.4, -1.0, 0.7), pixels=120, waves=1.0, waves_px=2.5, step=0.5, white=0.1,

@@ -2,7 +2,7 @@
 --spacing 1 1 1.5` on a made-up label map of the size of pyvista's frog tissue map (500 x 470 x 136
 voxels, 1 x 1 x 1.5 mm), whose label 4 is a 37 000-voxel organ with segmentation-like noise.
 
-    python benchmarks/label_cost.py [--repeat 3]
+    python -m benchmarks.label_cost [--repeat 3]
 
 Prints the best wall time of fresh processes and their peak memory.
 """

@@ -24,7 +24,7 @@ thesis' Two-step, 40 steps for voxel meshes, flattens these meshes to 40°), pyg
 ``hmesh.anisotropic_smooth`` (10 iterations), MeshLib's
 ``meshDenoiseViaNormals`` (its defaults).
 
-    python benchmarks/literature.py [--part own|literature|sota|cad|all] [--out FILE.md] [--pictures DIR]
+    python -m benchmarks.literature [--part own|literature|sota|cad|all] [--out FILE.md] [--pictures DIR]
 
 ``--pictures`` also draws two pairs (noisy, Taubin, pygel3d, skelfilter, clean; overview and close-up),
 the docs' ``docs/everyday-*.png``.
@@ -39,18 +39,16 @@ import time
 import numpy as np
 import trimesh
 
+from benchmarks import shapes
+from skelfilter.errors import SkelfilterError
+from skelfilter.evaluation import camera, metrics
+from skelfilter.evaluation.comparison.methods import meshlib_denoise, pygel3d_smooth
+from skelfilter.io import mesh_files as io
+from skelfilter.mesh import pipeline as mesh_pipeline
+from skelfilter.meshlab import scripts as meshlab
+from skelfilter.runtime.progress import Progress
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
-
-import shapes  # noqa: E402  (benchmarks/shapes.py)
-
-from skelfilter.errors import SkelfilterError  # noqa: E402
-from skelfilter.evaluation import camera, metrics  # noqa: E402
-from skelfilter.evaluation.comparison.methods import meshlib_denoise, pygel3d_smooth  # noqa: E402
-from skelfilter.io import mesh_files as io  # noqa: E402
-from skelfilter.mesh import pipeline as mesh_pipeline  # noqa: E402
-from skelfilter.meshlab import scripts as meshlab  # noqa: E402
-from skelfilter.runtime.progress import Progress  # noqa: E402
 
 SHAPES = os.path.join(ROOT, "skelfilter", "data")  # the clean shapes (package data)
 PAIRS_DATA = os.path.join(ROOT, "benchmarks", "data", "literature")  # see benchmarks/data/README.md

@@ -1,7 +1,7 @@
 """Point clouds: skelfilter's surface of a noisy cloud against screened Poisson reconstruction
 (open3d's and MeshLab's), scored against the clean mesh the cloud was sampled from.
 
-    python benchmarks/point_clouds.py [--shapes fandisk,rocker-arm,spot,bunny] [--points 30000]
+    python -m benchmarks.point_clouds [--shapes fandisk,rocker-arm,spot,bunny] [--points 30000]
                                       [--noise 0.004] [--out cloud-output]
 
 Each clean mesh is sampled uniformly by area (``--points`` points, no normals) and each point moved by
@@ -28,9 +28,9 @@ import tempfile
 import time
 
 import numpy as np
-import shapes
 import trimesh
 
+from benchmarks import shapes
 from skelfilter.evaluation.metrics.mesh_metrics import normal_error
 from skelfilter.mesh.closest_points import MeshSurface
 

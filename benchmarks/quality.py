@@ -1,8 +1,8 @@
 """The quality benchmark: skelfilter's variants against MeshLab's and MeshLib's denoisers, to choose
 the defaults on a tuning split of shapes and report a held-out split apart (not part of the tests).
 
-    python benchmarks/quality.py --rivals-only --jobs 2      # the rivals into the cache (hours)
-    python benchmarks/quality.py [--variant LABEL[:key=value,...]] ... [--clean-pass]
+    python -m benchmarks.quality --rivals-only --jobs 2      # the rivals into the cache (hours)
+    python -m benchmarks.quality [--variant LABEL[:key=value,...]] ... [--clean-pass]
 
 Cases are shapes (`shapes.SHAPES`) x noise kinds (`NOISE_KINDS`) x seeds (`SEEDS`): the thesis' noise
 (§7.2) on the shape's voxelization at ``--resolution`` voxels (160), as a marching-cubes mesh. The
@@ -33,11 +33,10 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, fields
 
 import numpy as np
-import quality_tables
-import shapes
 import trimesh
-from quality_tables import SPLITS
 
+from benchmarks import oracle, quality_tables, shapes
+from benchmarks.quality_tables import SPLITS
 from skelfilter.core.synthetic_noise import NoiseResult
 from skelfilter.evaluation import camera, metrics
 from skelfilter.evaluation.comparison import render, report
@@ -348,15 +347,14 @@ def run_variant(case, label, params, setup, save_path):
 
 
 def run_oracle(case, setup, save_path):
-    """The per-ball oracle (`ball_oracle.owned_oracle`: each voxel of the noisy shape flips where the
+    """The per-ball oracle (`oracle.owned_oracle`: each voxel of the noisy shape flips where the
     skeleton ball that owns it is centred beyond the clean shape, on either side; then
-    `ball_oracle.seam_smoothed`) as a marching-cubes mesh, scored: the ceiling of a per-ball skeleton
+    `oracle.seam_smoothed`) as a marching-cubes mesh, scored: the ceiling of a per-ball skeleton
     decision, written to ``save_path`` unless None."""
-    import ball_oracle  # it imports this module
     prep = load_case(case, setup)
     start = time.perf_counter()
     noisy = prep.noise.noisy
-    decided = ball_oracle.seam_smoothed(noisy, ball_oracle.owned_oracle(noisy, prep.noise.clean))
+    decided = oracle.seam_smoothed(noisy, oracle.owned_oracle(noisy, prep.noise.clean))
     mesh = marching_cubes.mask_to_mesh(decided, prep.grid)
     seconds = time.perf_counter() - start
     if save_path is not None:

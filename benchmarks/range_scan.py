@@ -6,19 +6,15 @@ scanner loses the signal, and Gaussian noise along the view rays is added, as a 
 depth. Used for the open-scan fixture of the tests (``tests/data/range-scan-bunny.ply``) and the
 open-surface checks of the README.
 
-    python benchmarks/range_scan.py MESH OUT.ply [--seed 1] [--noise 0.2] [--holes 6] [--view X,Y,Z]
+    python -m benchmarks.range_scan MESH OUT.ply [--seed 1] [--noise 0.2] [--holes 6] [--view X,Y,Z]
 """
 
 import argparse
-import os
-import sys
 
 import numpy as np
 import trimesh
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-
-from skelfilter.io import mesh_files as io  # noqa: E402
+from skelfilter.io import mesh_files as io
 
 
 def orthographic_rays(mesh, view, pixels):

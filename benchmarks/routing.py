@@ -1,6 +1,6 @@
 """What the default runs on each input of the routing corpus, against what the input needs.
 
-    python benchmarks/routing.py [--out docs/routing.md] [--split tuning|held-aside|all] [--errors]
+    python -m benchmarks.routing [--out docs/routing.md] [--split tuning|held-aside|all] [--errors]
 
 Each case of ``routing_corpus.CASES`` is denoised with the default preset (no flags) and the route is
 read from what happened: ``none`` (the output equals the input), ``fine`` (the input mesh came back
@@ -17,9 +17,9 @@ import time
 import warnings
 
 import numpy as np
-import routing_corpus
 import trimesh
 
+from benchmarks import routing_corpus
 from skelfilter.evaluation import metrics
 from skelfilter.mesh import output_choice
 from skelfilter.mesh import pipeline as mesh_pipeline
@@ -87,7 +87,7 @@ def _fmt(value, digits=2):
 
 def report(rows, errors):
     out = ["# Routing: what the default runs on each input", "",
-           f"Made by `python benchmarks/routing.py{' --errors' if errors else ''}` on "
+           f"Made by `python -m benchmarks.routing{' --errors' if errors else ''}` on "
            f"{datetime.date.today().isoformat()}. The corpus and the classes: "
            "`benchmarks/routing_corpus.py`; the measure: `skelfilter/mesh/surface_roughness.py`; the "
            "decision: `skelfilter/mesh/output_choice.py`.", ""]

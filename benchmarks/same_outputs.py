@@ -1,8 +1,8 @@
 """Whether a change leaves every output as it was: the default's outputs on a corpus, saved by one
 commit and compared bit for bit with another's.
 
-    PYTHONPATH=/path/to/checkout python benchmarks/same_outputs.py save OUT.npz [--corpus routing shapes volumes]
-    python benchmarks/same_outputs.py compare BEFORE.npz AFTER.npz
+    PYTHONPATH=/path/to/checkout python -m benchmarks.same_outputs save OUT.npz [--corpus routing shapes volumes]
+    python -m benchmarks.same_outputs compare BEFORE.npz AFTER.npz
 
 ``save`` denoises, with the skelfilter that ``PYTHONPATH`` (or the installed package) gives, every case
 of the corpora named: ``routing`` the routing corpus (`routing_corpus.CASES`, 112 meshes: clean, fine
@@ -22,22 +22,20 @@ import time
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, HERE)
 CORPORA = ("routing", "shapes", "volumes")
 SHAPE_NOISES = (("high", {"p": 0.01, "r": 2.1, "h": 7, "l": 4}),
                 ("bumps-dents", {"p": 0.014, "r": 2.1, "h": 3, "l": 6, "dents": True}))
 
 
 def _routing():
-    import routing_corpus
+    from benchmarks import routing_corpus
 
     for name in routing_corpus.CASES:
         yield name, lambda name=name: ("mesh", routing_corpus.load(name)[0])
 
 
 def _shapes():
-    import shapes
-
+    from benchmarks import shapes
     from skelfilter.mesh import pipeline as mesh_pipeline
     from skelfilter.params import NoiseParams
 
@@ -48,8 +46,7 @@ def _shapes():
 
 
 def _volumes():
-    import shapes
-
+    from benchmarks import shapes
     from skelfilter.mesh import pipeline as mesh_pipeline
     from skelfilter.params import NoiseParams
 

@@ -1,7 +1,7 @@
 """Surfaces from label maps: skelfilter's mesh of a label map against the surfaces a segmentation user
 already has, scored against the analytic solid the label map samples.
 
-    python benchmarks/surfaces.py [--set tuning|held-out|all] [--methods a,b] [--oracle] [--out surface-output]
+    python -m benchmarks.surfaces [--set tuning|held-out|all] [--methods a,b] [--oracle] [--out surface-output]
 
 Each case is an analytic solid (exact signed distance in millimetres) sampled as a label map: a voxel
 is set where its centre lies inside. Spacings are isotropic and thick-sliced (slices two or more times

@@ -1,4 +1,4 @@
-"""The thesis' tables, re-run: ``python benchmarks/thesis_tables.py TABLE [--resolution N] [--out DIR]``.
+"""The thesis' tables, re-run: ``python -m benchmarks.thesis_tables TABLE [--resolution N] [--out DIR]``.
 
 TABLE is one of 4.1 (velocity fields), fig4.4 (total skeleton error against t), 5.1 (derivative, direct and
 global streamline pruning), 6.1 and 6.2 (EDT filters), 7.1 (geodesic estimate), 8.1 (resolution and time),
@@ -17,19 +17,17 @@ import time
 import numpy as np
 from scipy import ndimage
 
+from benchmarks import shapes
+from skelfilter.core import importance, pipeline, pruning_rules, reconstruct, skeleton, stage
+from skelfilter.core.distance import distance_and_features
+from skelfilter.core.synthetic_noise import add_noise
+from skelfilter.evaluation.metrics import thesis_measures
+from skelfilter.mesh.voxelize import voxelize
+from skelfilter.params import DenoiseParams
+from skelfilter.presets import RHO_RULE_CAP_FACTOR
+from skelfilter.runtime.progress import Progress
+
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, HERE)
-
-import shapes  # noqa: E402
-
-from skelfilter.core import importance, pipeline, pruning_rules, reconstruct, skeleton, stage  # noqa: E402
-from skelfilter.core.distance import distance_and_features  # noqa: E402
-from skelfilter.core.synthetic_noise import add_noise  # noqa: E402
-from skelfilter.evaluation.metrics import thesis_measures  # noqa: E402
-from skelfilter.mesh.voxelize import voxelize  # noqa: E402
-from skelfilter.params import DenoiseParams  # noqa: E402
-from skelfilter.presets import RHO_RULE_CAP_FACTOR  # noqa: E402
-from skelfilter.runtime.progress import Progress  # noqa: E402
 
 # The thesis' model -> the shape standing in for it ("" where it is the same model).
 SUBSTITUTES = {"cube": "", "bunny": "", "fandisk": "", "bear": "spot", "cat": "quadruped", "chair": "chair",

@@ -1,7 +1,7 @@
 """How the pipeline's steps scale with numba's threads: fandisk's noisy mesh at one size, file to file,
 each run a fresh process with ``NUMBA_NUM_THREADS`` set.
 
-    python benchmarks/thread_scaling.py [--size 256] [--threads 1 2]
+    python -m benchmarks.thread_scaling [--size 256] [--threads 1 2]
 
 Prints each step's wall time per thread count and, from the first two counts, the share of the step
 that ran in parallel (Amdahl: ``t(n) = t(1) (1 - p + p / n)``) and what that share would make of it

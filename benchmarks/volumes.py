@@ -1,6 +1,6 @@
 """Volumes with segmentation-like noise: skelfilter against the smoothing a segmentation user has.
 
-    python benchmarks/volumes.py [--resolution 128] [--shapes a,b] [--out volume-output]
+    python -m benchmarks.volumes [--resolution 128] [--shapes a,b] [--out volume-output]
 
 A noisy segmentation (a CT or MRI mask thresholded from a noisy image) has bumps, dents, islands and
 pits of one to three voxels together. It is made here as the clean shape's signed distance (voxels,
@@ -28,9 +28,9 @@ import sys
 import time
 
 import numpy as np
-import shapes
 from scipy import ndimage
 
+from benchmarks import shapes
 from skelfilter.core import pipeline
 from skelfilter.evaluation import metrics
 from skelfilter.mesh.voxelize import grid_for_bounds, voxelize_on_grid

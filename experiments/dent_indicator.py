@@ -1,7 +1,7 @@
 """Can the noisy shape alone tell whether its noise has dents? A majority-filter reference, measured
 against the cases' known noise.
 
-    python benchmarks/dent_indicator.py [--shapes NAME ...] [--kinds stripes bumps-dents ...]
+    python -m experiments.dent_indicator [--shapes NAME ...] [--kinds stripes bumps-dents ...]
                                         [--windows 5 7 9 11] [--seed 1] [--resolution 160]
 
 For each case (a benchmark shape, the thesis' noise of `quality.NOISE_KINDS` at ``--resolution``) the
@@ -18,11 +18,10 @@ import argparse
 import sys
 
 import numpy as np
-import quality
-import shapes
-from ball_oracle import auc
 from scipy import ndimage
 
+from benchmarks import quality, shapes
+from experiments.ball_oracle import auc
 from skelfilter.mesh import pipeline as mesh_pipeline
 
 DEEP = 0.65  # the mean over the window that puts a voxel well inside the reference

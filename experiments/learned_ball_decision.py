@@ -1,9 +1,9 @@
 """An experiment: how far a learned per-ball decision gets towards the per-ball oracle (`ball_oracle`).
 
     pip install scikit-learn     # the experiment's own need; skelfilter does not depend on it
-    python benchmarks/learned_ball_decision.py features --cases fandisk:stripes ... [--heights 2 3 5] [--dir FOLDER]
-    python benchmarks/learned_ball_decision.py train [--dir FOLDER]
-    python benchmarks/learned_ball_decision.py evaluate --cases gear:stripes ... [--thresholds 0.5 0.8] [--dir FOLDER]
+    python -m experiments.learned_ball_decision features --cases fandisk:stripes ... [--heights 2 3 5] [--dir FOLDER]
+    python -m experiments.learned_ball_decision train [--dir FOLDER]
+    python -m experiments.learned_ball_decision evaluate --cases gear:stripes ... [--thresholds 0.5 0.8] [--dir FOLDER]
 
 ``features`` writes, per case (a benchmark shape and a noise kind of `quality.NOISE_KINDS`, seed 1,
 160 voxels), every IE-skeleton ball of both sides of the noisy shape (foreground; the background
@@ -21,7 +21,7 @@ an input that needs nothing.
 the ``high`` noise's (kept for evaluating on a noise never trained on) and ``--leave-out``'s shapes
 (to measure, on tuning shapes, what the model does on a shape it never saw), into ``--model-dir``: a
 classifier of dropped balls and a regressor of the clean radius (the oracle's cap) of the others. ``--weigh voxels``
-weighs each ball by the voxels it owns (`ball_oracle.ray_owners`), so that the loss counts voxels, not
+weighs each ball by the voxels it owns (`oracle.ray_owners`), so that the loss counts voxels, not
 balls.
 
 ``--context`` adds to a ball's inputs its skeleton neighbourhood's (`context`: mean and largest radius,
@@ -30,11 +30,11 @@ evaluate alike; ``--context course`` adds how the skeleton runs there too (`cour
 follows a line or a sheet, and how far the ball lies off them).
 
 ``evaluate`` prints, per case, the classifier's AUC on each side and the scores (`ball_oracle.scores`)
-of the outputs the model gives: the owned output (`ball_oracle.owned_output`: the voxels of dropped
+of the outputs the model gives: the owned output (`oracle.owned_output`: the voxels of dropped
 balls flip), the same with the drop chances averaged over the skeleton (`smoothed_on_skeleton`),
 dropped above each of ``--thresholds`` (``--background-threshold``: the background's, where it
 differs), that output `rescued`: the noisy shape's voxels that a kept ball covers, its radius capped at
-the predicted clean radius, put back on both sides; and both seam smoothed (`ball_oracle.seam_smoothed`).
+the predicted clean radius, put back on both sides; and both seam smoothed (`oracle.seam_smoothed`).
 """
 
 import argparse
@@ -44,13 +44,12 @@ import os
 import pickle
 import sys
 
-import ball_oracle
 import numpy as np
-import quality
-import shapes
 from scipy import ndimage, sparse
 from scipy.sparse import csgraph
 
+from benchmarks import oracle, quality, shapes
+from experiments import ball_oracle
 from skelfilter.core import noise_estimate, saliency, stage
 from skelfilter.core.neighbourhood import unravel
 from skelfilter.core.reconstruct import union_of_balls
@@ -118,7 +117,7 @@ def side_measures(side, clean_side, estimate_side):
 
 
 def _sides(noise):
-    bounded = ball_oracle.bounded_background
+    bounded = oracle.bounded_background
     return (("fg", noise.noisy, noise.clean, "bumps"),
             ("bg", bounded(noise.noisy), bounded(noise.clean), "dents"))
 
@@ -230,9 +229,9 @@ def load(folder, shape, kind, name=None, with_context=None):
 
 
 def owners(shape, kind, height=None):
-    """`ball_oracle.ray_owners` of both sides of a case, and the case's noise masks."""
+    """`oracle.ray_owners` of both sides of a case, and the case's noise masks."""
     _, noise = _noise(shape, kind, height)
-    return {name: ball_oracle.ray_owners(side) for name, side, _, _ in _sides(noise)}, noise
+    return {name: oracle.ray_owners(side) for name, side, _, _ in _sides(noise)}, noise
 
 
 def _model_file(folder, weigh, with_context):
@@ -310,17 +309,17 @@ def evaluate(cases, folder, weigh="balls", thresholds=(0.5,), with_context=None,
                     for side in ("fg", "bg")}
         kept_radii = {side: np.minimum(parts[side][3], np.maximum(regressor.predict(parts[side][1]), 0))
                       for side in ("fg", "bg")}
-        outputs = {"model, owned": ball_oracle.owned_output(noise.noisy, owned["fg"], owned["bg"], dropped["fg"],
+        outputs = {"model, owned": oracle.owned_output(noise.noisy, owned["fg"], owned["bg"], dropped["fg"],
                                                             dropped["bg"])}
         for t in thresholds:
             background = t if background_threshold is None else background_threshold
             drop = {"fg": smoothed["fg"] >= t, "bg": smoothed["bg"] >= background}
-            out = ball_oracle.owned_output(noise.noisy, owned["fg"], owned["bg"], drop["fg"], drop["bg"])
+            out = oracle.owned_output(noise.noisy, owned["fg"], owned["bg"], drop["fg"], drop["bg"])
             outputs[f"model, owned, smoothed {t:g}"] = out
             kept = rescued(out, parts, drop, kept_radii, noise.noisy)
             outputs[f"model, owned, smoothed {t:g}, rescued"] = kept
-            outputs[f"model, owned, smoothed {t:g}, seam"] = ball_oracle.seam_smoothed(noise.noisy, out)
-            outputs[f"model, owned, smoothed {t:g}, rescued, seam"] = ball_oracle.seam_smoothed(noise.noisy, kept)
+            outputs[f"model, owned, smoothed {t:g}, seam"] = oracle.seam_smoothed(noise.noisy, out)
+            outputs[f"model, owned, smoothed {t:g}, rescued, seam"] = oracle.seam_smoothed(noise.noisy, kept)
         for name, out in outputs.items():
             s = ball_oracle.scores(out, noise, thin)
             print(f"{case.name:24s} {case.split:9s} {name:28s} AUC fg {aucs[0]:.3f} bg {aucs[1]:.3f} | noise left "

@@ -1,7 +1,7 @@
 """What the default does with one isolated spur: a 40-voxel box segmentation with a single 2 x 2 spur
 of 1-3 voxels on its top face, denoised as it is and with a given noise height.
 
-    python benchmarks/lone_spur.py
+    python -m experiments.lone_spur
 
 Prints, per spur height and noise height, the spur voxels left and the box voxels lost.
 """

@@ -1,6 +1,6 @@
 """What the noise estimate finds after the default's pruning: clean shapes against noisy ones.
 
-    python benchmarks/noise_coverage.py [--groups clean thesis segmentation] [--shapes NAME ...]
+    python -m experiments.noise_coverage [--groups clean thesis segmentation] [--shapes NAME ...]
 
 Each case's mask is cropped and padded as `skelfilter.core.pipeline.denoise_volume` does, its
 skeleton pruned by the default's foreground stage (`pipeline.stage_at_noise_scale`: at t, and at t / 2
@@ -18,14 +18,10 @@ smallest, median and largest coverage.
 """
 
 import argparse
-import os
-import sys
 
 import numpy as np
-import quality
-import shapes
-import volumes
 
+from benchmarks import quality, shapes, volumes
 from skelfilter.core import pipeline
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.mesh.voxelize import grid_for_bounds, voxelize_on_grid
@@ -84,5 +80,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
     main()

@@ -1,7 +1,7 @@
 """Issue 51's first measurements: what the default leaves on two-sided noise and on thick parts, and
 whether a reading of the input alone can tell the halos, the dents and the restored bumps apart.
 
-    python benchmarks/two_sided_readings.py [--shapes cube bunny ...] [--kinds bumps-dents stripes ...]
+    python -m experiments.two_sided_readings [--shapes cube bunny ...] [--kinds bumps-dents stripes ...]
                                             [--seed 1] [--resolution 160] [--median]
 
 Every variant works on the noise grid's masks (the input is the noisy mask; the default is
@@ -9,7 +9,7 @@ Every variant works on the noise grid's masks (the input is the noisy mask; the 
 meshes either) and is scored against the clean mask:
 
 - ``default``; ``pruned``: its pruning before the features kept; ``restored``: the steps of
-  `pipeline.keep_features` one by one, to see which gives back the bumps on thick parts.
+  `feature_restore.keep_features` one by one, to see which gives back the bumps on thick parts.
 - ``balls over <radius> voxels kept``: the pruning keeps every ball that large whatever its
   importance (too large to be a bump: would they carry the parts the restoring gives back whole?).
 - ``halo g<sigma>@<level>``: the default, plus the voxels it removed where the input's Gaussian of
@@ -19,7 +19,7 @@ meshes either) and is scored against the clean mask:
 - ``both stages`` (with the background's own estimate: whether it finds dents) and ``background,
   foreground estimate``: the background's features kept with the foreground's noise height in place
   of its own.
-- ``proxy g<sigma>``: the per-ball oracle (`ball_oracle.owned_oracle`, seam smoothed) with the
+- ``proxy g<sigma>``: the per-ball oracle (`oracle.owned_oracle`, seam smoothed) with the
   input's Gaussian reading in place of the clean shape; with ``--median``, ``median <w>`` (the
   level 0 of the input's signed distance median-filtered over ``w`` voxels: the modal surface,
   slow) and ``proxy median <w>``.
@@ -32,12 +32,10 @@ new material, the clean shape's concavities filled, the voxel error over the inp
 import argparse
 import sys
 
-import ball_oracle
 import numpy as np
-import quality
-import shapes
 from scipy import ndimage
 
+from benchmarks import oracle, quality, shapes
 from skelfilter.core import feature_restore, noise_estimate, pipeline, pruning_rules
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.params import DenoiseParams
@@ -63,7 +61,7 @@ class Case:
 
 
 class Recorder:
-    """`pipeline.keep_features`' steps and the noise estimates, recorded as the default runs."""
+    """`feature_restore.keep_features`' steps and the noise estimates, recorded as the default runs."""
 
     STEPS = ("features_by_extent", "along_lines", "connections", "skin_far_from_noise")
 
@@ -161,13 +159,13 @@ def variants(case, median):
         yield "background, foreground estimate", pipeline.denoise_volume(noisy, params.with_(stages="both")).mask
     for sigma in (2.0, 3.0):
         reading = ndimage.gaussian_filter(noisy.astype(np.float32), sigma) >= 0.5
-        yield f"proxy g{sigma}", ball_oracle.seam_smoothed(noisy, ball_oracle.owned_oracle(noisy, reading))
+        yield f"proxy g{sigma}", oracle.seam_smoothed(noisy, oracle.owned_oracle(noisy, reading))
     if median:
         signed = (ndimage.distance_transform_edt(noisy) - ndimage.distance_transform_edt(~noisy)).astype(np.float32)
         for width in (7, 11):
             reading = ndimage.median_filter(signed, size=width) > 0
             yield f"median {width}", reading
-            yield f"proxy median {width}", ball_oracle.seam_smoothed(noisy, ball_oracle.owned_oracle(noisy, reading))
+            yield f"proxy median {width}", oracle.seam_smoothed(noisy, oracle.owned_oracle(noisy, reading))
 
 
 def main(argv=None):

@@ -1,6 +1,6 @@
 """Could the volume path decide without its second run? Two decisions measured against the default's.
 
-    python benchmarks/volume_second_run.py [--resolution 128] [--shapes a,b] [--out volume-second-run.jsonl]
+    python -m experiments.volume_second_run [--resolution 128] [--shapes a,b] [--out volume-second-run.jsonl]
 
 The volume path (`skelfilter.core.pipeline._fine_pass_then_stages`) runs the foreground stage on the
 volume after the fine pass; where that stage still finds noise at the skeleton's scale, the fine pass
@@ -19,10 +19,8 @@ import json
 import sys
 
 import numpy as np
-import quality
-import shapes
-import volumes
 
+from benchmarks import quality, shapes, volumes
 from skelfilter.core import pipeline
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.params import DenoiseParams

@@ -1,6 +1,5 @@
 """Smoke test of the benchmark at one small size (no timing assertions)."""
 
-import argparse
 import json
 import os
 import re
@@ -10,18 +9,14 @@ import sys
 import numpy as np
 import pytest
 
+from benchmarks import oracle
 from skelfilter.evaluation import metrics
 
 ROOT = os.path.join(os.path.dirname(__file__), "..")
-sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
-import ball_oracle  # noqa: E402
-import dent_indicator  # noqa: E402
-import learned_ball_decision  # noqa: E402
-import noise_coverage  # noqa: E402
 
 
 def test_same_outputs_saves_a_corpus_and_names_what_differs(tmp_path, capsys):
-    import same_outputs
+    from benchmarks import same_outputs
 
     saved = tmp_path / "before.npz"
     same_outputs.save(str(saved), ["volumes"])
@@ -41,12 +36,12 @@ def test_same_outputs_saves_a_corpus_and_names_what_differs(tmp_path, capsys):
 
 
 def test_thread_scaling_prints_every_step_and_its_parallel_share():
-    import thread_scaling
+    from benchmarks import thread_scaling
 
     assert thread_scaling.parallel_share(4.0, 2.0, 2) == 1.0 and thread_scaling.parallel_share(4.0, 4.0, 2) == 0.0
     assert thread_scaling.parallel_share(4.0, 3.0, 2) == pytest.approx(0.5)
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.path.abspath(ROOT), os.environ.get("PYTHONPATH", "")]))
-    done = subprocess.run([sys.executable, os.path.join(ROOT, "benchmarks", "thread_scaling.py"), "--size", "40",
+    done = subprocess.run([sys.executable, "-m", "benchmarks.thread_scaling", "--size", "40",
                            "--threads", "1", "2"], env=env, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
     rows = {line[:40].strip(): line[40:].split() for line in done.stdout.splitlines()[2:]}
@@ -58,7 +53,7 @@ def test_thread_scaling_prints_every_step_and_its_parallel_share():
 def test_benchmark_writes_every_figure(tmp_path):
     out = tmp_path / "bench.json"
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.path.abspath(ROOT), os.environ.get("PYTHONPATH", "")]))
-    done = subprocess.run([sys.executable, os.path.join(ROOT, "benchmarks", "bench_pipeline.py"),
+    done = subprocess.run([sys.executable, "-m", "benchmarks.bench_pipeline",
                            "--sizes", "48", "56", "--volume-size", "48", "--repeat", "1", "--json", str(out)],
                           env=env, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
@@ -104,7 +99,7 @@ def test_benchmark_writes_every_figure(tmp_path):
 @pytest.mark.parametrize("table, thesis_figure", [("7.1", 0.1169), ("4.1", 0.2506), ("6.2", 0.0008)])
 def test_thesis_tables_print_both_columns(tmp_path, table, thesis_figure):
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.path.abspath(ROOT), os.environ.get("PYTHONPATH", "")]))
-    done = subprocess.run([sys.executable, os.path.join(ROOT, "benchmarks", "thesis_tables.py"), table,
+    done = subprocess.run([sys.executable, "-m", "benchmarks.thesis_tables", table,
                            "--resolution", "32", "--out", str(tmp_path)], env=env, capture_output=True, text=True,
                           timeout=600)
     assert done.returncode == 0, done.stderr
@@ -125,44 +120,23 @@ def _cube_with_a_bump_and_a_dent():
 
 def test_the_ball_oracle_removes_a_bump_and_fills_a_dent():
     clean, noisy = _cube_with_a_bump_and_a_dent()
-    out, (centres, radii, clean_radii, noise) = ball_oracle.oracle(noisy, clean)
+    out, (centres, radii, clean_radii, noise) = oracle.oracle(noisy, clean)
     assert not (out & ~clean)[14:18, 14:18, 32:35].any()
     assert out[22:26, 22:26, 29:32].all()
     assert (out ^ clean).sum() < 0.01 * clean.sum()
     # the balls labelled noise are those standing more than a voxel beyond the clean shape
-    assert noise.any() and (noise == (radii - clean_radii > ball_oracle.PROTRUSION)).all()
-
-
-def test_auc_against_counting_pairs():
-    rng = np.random.default_rng(0)
-    values, positive = rng.normal(size=60), rng.random(60) < 0.4
-    values[positive] += 0.8
-    pairs = [(p > n) + 0.5 * (p == n) for p in values[positive] for n in values[~positive]]
-    assert ball_oracle.auc(values, positive) == pytest.approx(np.mean(pairs))
-    assert ball_oracle.auc(-values, positive) == pytest.approx(np.mean(pairs))  # turned around
-
-
-def test_protrusion_beyond_larger_balls_is_the_height_a_ball_stands_out():
-    shape = (48, 48, 48)
-    flat = lambda *ijk: np.ravel_multi_index(ijk, shape)  # noqa: E731
-    centres = np.array([flat(24, 24, 24), flat(24, 24, 37), flat(24, 24, 30)])
-    radii = np.array([12.0, 2.0, 2.0])  # a big ball, a small one standing on it, one inside it
-    out = ball_oracle.protrusion_beyond_larger(shape, centres, radii)
-    # the big ball's union ends 12 voxels from its centre (to within a voxel on the grid)
-    assert abs(out[1] - (37 + 2 - 24 - 12)) <= 1.0
-    assert out[2] < 0
-    assert out[0] == 2 * radii[0]  # nothing larger: it stands out by its whole size
+    assert noise.any() and (noise == (radii - clean_radii > oracle.PROTRUSION)).all()
 
 
 def test_the_owned_oracle_removes_a_bump_and_fills_a_dent_without_gaps():
     clean, noisy = _cube_with_a_bump_and_a_dent()
-    voxels, owner, centres, radii = ball_oracle.ray_owners(noisy)
+    voxels, owner, centres, radii = oracle.ray_owners(noisy)
     assert (owner >= 0).mean() > 0.99  # nearly every voxel has its ball
     # a voxel in the middle of the bump belongs to a ball centred in the bump
     middle = np.ravel_multi_index((15, 15, 33), noisy.shape)
     ball = centres[owner[np.searchsorted(voxels, middle)]]
     assert np.unravel_index(ball, noisy.shape)[2] >= 32
-    out = ball_oracle.owned_oracle(noisy, clean)
+    out = oracle.owned_oracle(noisy, clean)
     assert not out[15:17, 15:17, 33:35].any() and out[23:25, 23:25, 29:32].all()
     # no coverage gaps: what stays wrong is one voxel at the rims (of the 96 the noise changed)
     assert (out ^ clean).sum() <= (noisy ^ clean).sum() / 6
@@ -178,33 +152,16 @@ def test_the_seam_smoothing_takes_the_thread_a_decision_left_of_a_handle_and_not
     noisy[16:24, 19:22, 32:35] = False
     out = notched.copy()
     out[13:27, 20, 36] = out[13, 20, 32:37] = out[26, 20, 32:37] = True  # the decision left a thread of it
-    smoothed = ball_oracle.seam_smoothed(noisy, out)
+    smoothed = oracle.seam_smoothed(noisy, out)
     assert metrics.voxel_genus(noisy)["genus"] == metrics.voxel_genus(out)["genus"] == 1
     assert np.array_equal(smoothed, notched)  # the thread gone, the faces under it as they were
-    assert np.array_equal(ball_oracle.seam_smoothed(noisy, noisy), noisy)  # nothing changed: nothing moves
-
-
-def test_the_skeleton_course_tells_a_ball_on_a_rod_from_a_ball_off_it():
-    grid = (40, 40, 40)
-    rod = [(x, 20, 20) for x in range(4, 36)]
-    blob = [(20, 21, 20), (20, 22, 20), (20, 23, 20)]  # a branch off the rod's middle, as a blob's skeleton
-    centres = np.ravel_multi_index(np.array(rod + blob).T, grid)
-    order = np.argsort(centres)
-    columns = [c[np.argsort(order)] for c in learned_ball_decision.course(centres[order], grid, rounds=(8, 16))]
-    linearity, planarity, spread, off_line, off_plane = columns[5:]  # over 16 steps
-    on_rod, middle, tip = len(rod) // 4, len(rod) // 2, len(rod) + 2  # away from the branch, at it, its tip
-    assert linearity[on_rod] > 0.95 and off_line[on_rod] < 0.1
-    assert off_line[tip] > 2.0 > 1.0 > off_line[middle]  # measured: 2.28 and 0.49
-    assert spread[tip] < spread[on_rod] and (planarity >= 0).all() and (off_plane >= 0).all()
-    # over 8 steps the tip's neighbourhood is mostly the branch itself: it lies on its own line
-    assert columns[3][tip] < 0.5
+    assert np.array_equal(oracle.seam_smoothed(noisy, noisy), noisy)  # nothing changed: nothing moves
 
 
 def test_procedural_shapes_are_repeatable_solids_with_thin_parts():
     """The made-up training shapes: one seed, one shape; watertight; rods and plates thinner than
     the benchmark's thin-part ball (8 voxels across at 160) make a good share of their voxels."""
-    import shapes
-
+    from benchmarks import shapes
     from skelfilter.evaluation.metrics import thin_parts
     from skelfilter.mesh.voxelize import voxelize
 
@@ -213,47 +170,3 @@ def test_procedural_shapes_are_repeatable_solids_with_thin_parts():
     assert first.is_watertight and first.is_volume
     grid = voxelize(shapes.load("procedural-3"), resolution=160)[0]
     assert 0.05 < thin_parts(grid, 4.0).sum() / grid.sum() < 0.9
-
-
-def test_the_dent_indicator_against_counting_windows():
-    rng = np.random.default_rng(3)
-    mask = np.zeros((14, 14, 14), dtype=bool)
-    mask[3:11, 3:11, 3:11] = rng.random((8, 8, 8)) < 0.6
-    w, h = 3, 1
-    deep = high = 0
-    for x, y, z in np.ndindex(mask.shape):
-        mean = mask[max(x - h, 0):x + h + 1, max(y - h, 0):y + h + 1, max(z - h, 0):z + h + 1].sum() / w ** 3
-        deep += (not mask[x, y, z]) and mean >= dent_indicator.DEEP
-        high += bool(mask[x, y, z]) and mean < 1 - dent_indicator.DEEP
-    assert deep and high
-    assert dent_indicator.indicator(mask, w) == pytest.approx(deep / high, rel=1e-6)
-
-
-def test_the_learned_decisions_clean_kind_is_the_shape_without_noise():
-    assert learned_ball_decision._case("cube:clean") == ("cube", "clean")
-    with pytest.raises(argparse.ArgumentTypeError, match="SHAPE:KIND"):
-        learned_ball_decision._case("cube:spotless")
-    _, noise = learned_ball_decision._noise("cube", "clean")
-    assert noise.clean.any() and np.array_equal(noise.noisy, noise.clean)
-    assert not noise.bumps.any() and not noise.dents.any()
-    _, noisy = learned_ball_decision._noise("cube", "stripes")
-    assert np.array_equal(noisy.clean, noise.clean) and noisy.bumps.any()
-
-
-def test_the_noise_coverage_finds_noise_on_a_noisy_cube_and_none_on_the_clean_one(capsys, monkeypatch):
-    monkeypatch.setattr(noise_coverage, "CLEAN_GRIDS", ((128, 6),))
-    noise_coverage.main(["--groups", "clean", "--shapes", "cube"])
-    assert "== clean, tuning: found on 0 of 1" in capsys.readouterr().out
-    noisy = noise_coverage.quality.Case("cube", "stripes", 1).noise(96)
-    mask = noise_coverage.mesh_pipeline.noisy_mesh(noise_coverage.shapes.load("cube"), noisy)[1].noisy
-    estimate = noise_coverage.estimate(mask)
-    assert estimate.found  # coverage 0.076 at 96 voxels
-
-
-def test_volume_second_run_reads_both_estimates_and_scores_where_they_disagree():
-    import volume_second_run
-
-    row = volume_second_run.run_case("bunny", "strong", 40)
-    assert row["shape"] == "bunny" and row["input"] is not None and set(row["input"]) == {"found", "height", "coverage"}
-    if row["smoothed"] is not None and row["input"]["found"] and not row["smoothed"]["found"]:
-        assert row["default"] > 0 and row["input_only"] > 0

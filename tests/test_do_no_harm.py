@@ -4,7 +4,6 @@ a reason."""
 
 import importlib.util
 import os
-import sys
 
 import manifold3d
 import numpy as np
@@ -205,8 +204,7 @@ def test_a_clean_gear_as_a_volume_passes_through(resolution):
 @pytest.fixture(scope="module")
 def chair_160():
     """The quality benchmark's chair (seat 5 voxels thick, legs 6 voxels square) at 160 voxels."""
-    sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "benchmarks"))
-    import shapes
+    from benchmarks import shapes
     return voxelize(shapes.chair(), 160, 20)[0]
 
 

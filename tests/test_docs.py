@@ -28,8 +28,12 @@ def test_links_lead_somewhere(page):
 @pytest.mark.parametrize("page", PAGES, ids=lambda p: p.name)
 def test_named_files_and_modules_exist(page):
     text = page.read_text()
-    for path in set(re.findall(r"`((?:skelfilter|benchmarks|tests|meshlab_scripts|comparisons)/[\w/.-]+)`", text)):
+    for path in set(re.findall(r"`((?:skelfilter|benchmarks|experiments|tests|meshlab_scripts|comparisons)/[\w/.-]+)`",
+                               text)):
         assert (ROOT / path).exists(), f"{page.name} names {path}, which does not exist"
+    for command in set(re.findall(r"python -m ((?:benchmarks|experiments)\.\w+)", text)):
+        script = (ROOT / command.replace(".", "/")).with_suffix(".py")
+        assert script.exists(), f"{page.name} runs {command}, which is no module"
     for module in set(re.findall(r"\bskelfilter(?:\.[a-z_]+)+", text)):
         parts = module.split(".")
         found = any((ROOT / "/".join(parts[:k])).with_suffix(".py").exists()

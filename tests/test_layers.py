@@ -84,3 +84,87 @@ def test_the_rule_catches_an_upward_import(tmp_path):
 def test_no_module_over_450_lines():
     long = {n: len(p.read_text().splitlines()) for n, p in MODULES.items()}
     assert {n: k for n, k in long.items() if k > 450} == {}
+
+
+ROOT = PACKAGE.parent
+# The product, the benchmark harness and the experiments: every module of the tree that imports others.
+TREE = {".".join(p.relative_to(ROOT).with_suffix("").parts[:-1] if p.name == "__init__.py"
+                 else p.relative_to(ROOT).with_suffix("").parts): p
+        for folder in ("skelfilter", "benchmarks", "experiments") for p in sorted((ROOT / folder).rglob("*.py"))}
+
+
+def _tree_imports(name, path):
+    """The modules of `TREE` that ``name`` imports (anywhere in it, functions included), by their names."""
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            targets = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join(anchor + ([node.module] if node.module else []))
+            # ``from package import module`` imports the module; ``from module import name``, the module
+            targets = [f"{base}.{a.name}" if f"{base}.{a.name}" in TREE else base for a in node.names]
+        else:
+            continue
+        yield from (t for t in targets if t in TREE and t != name)
+
+
+def _cycles(graph):
+    """The strongly connected components of more than one module (Tarjan's algorithm)."""
+    index, low, stack, on_stack, found = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in graph:
+        if v not in index:
+            visit(v)
+    return found
+
+
+def _graph():
+    return {name: set(_tree_imports(name, path)) for name, path in TREE.items()}
+
+
+def test_the_import_graph_has_no_circle():
+    assert _cycles(_graph()) == []
+
+
+def test_the_circle_check_can_fail():
+    assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+
+def test_the_harness_and_the_product_import_no_experiment():
+    for name, targets in _graph().items():
+        if not name.startswith("experiments"):
+            assert not {t for t in targets if t.startswith("experiments")}, f"{name} imports an experiment"
+        if name.startswith("skelfilter"):
+            assert not {t for t in targets if t.startswith("benchmarks")}, f"{name} imports the benchmark harness"
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "tests").glob("*.py")), ids=lambda p: p.name)
+def test_the_products_tests_import_no_experiment(path):
+    imported = {t for node in ast.walk(ast.parse(path.read_text()))
+                for t in ([a.name for a in node.names] if isinstance(node, ast.Import)
+                          else [node.module or ""] if isinstance(node, ast.ImportFrom) else [])}
+    assert not {t for t in imported if t == "experiments" or t.startswith("experiments.")}

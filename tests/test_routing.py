@@ -176,10 +176,8 @@ def test_noise_correlation_against_a_loop_over_edges():
 
 
 def test_a_depth_cameras_scan_is_smoothed():
-    import sys
 
-    sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
-    from depth_scan import depth_scan
+    from benchmarks.depth_scan import depth_scan
 
     scan, truth = depth_scan(trimesh.creation.box((1.0, 0.7, 0.5)), seed=3)
     from skelfilter.mesh.normal_filtering import noise_correlation

@@ -3,21 +3,17 @@ it encloses exactly its voxels, is sound, and is the smooth surface the voxels s
 pass through whatever their spacing (benchmarks/surfaces.py measures the rest against 3D Slicer's export
 and VTK's surface nets)."""
 
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 import trimesh
 
+from benchmarks import surfaces
 from skelfilter.core import pipeline, volume_fine_pass
 from skelfilter.core.gaussian_filter import gaussian_filter
 from skelfilter.core.spacing import signed_distance
 from skelfilter.core.surface_field import match_voxel_volume, smooth_constrained, unchanged_band
 from skelfilter.mesh.marching_cubes import mask_to_world_mesh
-
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
-import surfaces  # noqa: E402
 
 
 def _blob(shape, seed):

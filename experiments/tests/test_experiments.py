@@ -1,0 +1,88 @@
+"""Smoke tests of the experiments (``experiments/``): each against brute force or on a small case.
+Run apart from the product's tests: ``python -m pytest experiments/tests``."""
+
+import argparse
+
+import numpy as np
+import pytest
+
+from experiments import ball_oracle, dent_indicator, learned_ball_decision, noise_coverage, volume_second_run
+
+
+def test_auc_against_counting_pairs():
+    rng = np.random.default_rng(0)
+    values, positive = rng.normal(size=60), rng.random(60) < 0.4
+    values[positive] += 0.8
+    pairs = [(p > n) + 0.5 * (p == n) for p in values[positive] for n in values[~positive]]
+    assert ball_oracle.auc(values, positive) == pytest.approx(np.mean(pairs))
+    assert ball_oracle.auc(-values, positive) == pytest.approx(np.mean(pairs))  # turned around
+
+
+def test_protrusion_beyond_larger_balls_is_the_height_a_ball_stands_out():
+    shape = (48, 48, 48)
+    flat = lambda *ijk: np.ravel_multi_index(ijk, shape)  # noqa: E731
+    centres = np.array([flat(24, 24, 24), flat(24, 24, 37), flat(24, 24, 30)])
+    radii = np.array([12.0, 2.0, 2.0])  # a big ball, a small one standing on it, one inside it
+    out = ball_oracle.protrusion_beyond_larger(shape, centres, radii)
+    # the big ball's union ends 12 voxels from its centre (to within a voxel on the grid)
+    assert abs(out[1] - (37 + 2 - 24 - 12)) <= 1.0
+    assert out[2] < 0
+    assert out[0] == 2 * radii[0]  # nothing larger: it stands out by its whole size
+
+
+def test_the_skeleton_course_tells_a_ball_on_a_rod_from_a_ball_off_it():
+    grid = (40, 40, 40)
+    rod = [(x, 20, 20) for x in range(4, 36)]
+    blob = [(20, 21, 20), (20, 22, 20), (20, 23, 20)]  # a branch off the rod's middle, as a blob's skeleton
+    centres = np.ravel_multi_index(np.array(rod + blob).T, grid)
+    order = np.argsort(centres)
+    columns = [c[np.argsort(order)] for c in learned_ball_decision.course(centres[order], grid, rounds=(8, 16))]
+    linearity, planarity, spread, off_line, off_plane = columns[5:]  # over 16 steps
+    on_rod, middle, tip = len(rod) // 4, len(rod) // 2, len(rod) + 2  # away from the branch, at it, its tip
+    assert linearity[on_rod] > 0.95 and off_line[on_rod] < 0.1
+    assert off_line[tip] > 2.0 > 1.0 > off_line[middle]  # measured: 2.28 and 0.49
+    assert spread[tip] < spread[on_rod] and (planarity >= 0).all() and (off_plane >= 0).all()
+    # over 8 steps the tip's neighbourhood is mostly the branch itself: it lies on its own line
+    assert columns[3][tip] < 0.5
+
+
+def test_the_dent_indicator_against_counting_windows():
+    rng = np.random.default_rng(3)
+    mask = np.zeros((14, 14, 14), dtype=bool)
+    mask[3:11, 3:11, 3:11] = rng.random((8, 8, 8)) < 0.6
+    w, h = 3, 1
+    deep = high = 0
+    for x, y, z in np.ndindex(mask.shape):
+        mean = mask[max(x - h, 0):x + h + 1, max(y - h, 0):y + h + 1, max(z - h, 0):z + h + 1].sum() / w ** 3
+        deep += (not mask[x, y, z]) and mean >= dent_indicator.DEEP
+        high += bool(mask[x, y, z]) and mean < 1 - dent_indicator.DEEP
+    assert deep and high
+    assert dent_indicator.indicator(mask, w) == pytest.approx(deep / high, rel=1e-6)
+
+
+def test_the_learned_decisions_clean_kind_is_the_shape_without_noise():
+    assert learned_ball_decision._case("cube:clean") == ("cube", "clean")
+    with pytest.raises(argparse.ArgumentTypeError, match="SHAPE:KIND"):
+        learned_ball_decision._case("cube:spotless")
+    _, noise = learned_ball_decision._noise("cube", "clean")
+    assert noise.clean.any() and np.array_equal(noise.noisy, noise.clean)
+    assert not noise.bumps.any() and not noise.dents.any()
+    _, noisy = learned_ball_decision._noise("cube", "stripes")
+    assert np.array_equal(noisy.clean, noise.clean) and noisy.bumps.any()
+
+
+def test_the_noise_coverage_finds_noise_on_a_noisy_cube_and_none_on_the_clean_one(capsys, monkeypatch):
+    monkeypatch.setattr(noise_coverage, "CLEAN_GRIDS", ((128, 6),))
+    noise_coverage.main(["--groups", "clean", "--shapes", "cube"])
+    assert "== clean, tuning: found on 0 of 1" in capsys.readouterr().out
+    noisy = noise_coverage.quality.Case("cube", "stripes", 1).noise(96)
+    mask = noise_coverage.mesh_pipeline.noisy_mesh(noise_coverage.shapes.load("cube"), noisy)[1].noisy
+    estimate = noise_coverage.estimate(mask)
+    assert estimate.found  # coverage 0.076 at 96 voxels
+
+
+def test_volume_second_run_reads_both_estimates_and_scores_where_they_disagree():
+    row = volume_second_run.run_case("bunny", "strong", 40)
+    assert row["shape"] == "bunny" and row["input"] is not None and set(row["input"]) == {"found", "height", "coverage"}
+    if row["smoothed"] is not None and row["input"]["found"] and not row["smoothed"]["found"]:
+        assert row["default"] > 0 and row["input_only"] > 0
