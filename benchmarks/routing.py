@@ -21,8 +21,8 @@ import trimesh
 
 from benchmarks import routing_corpus
 from skelfilter.evaluation import metrics
-from skelfilter.mesh import output_choice
 from skelfilter.mesh import pipeline as mesh_pipeline
+from skelfilter.mesh import route
 from skelfilter.runtime.progress import Progress
 
 ROUTES = routing_corpus.NEEDS
@@ -45,7 +45,7 @@ def run_case(name, errors):
         warnings.simplefilter("ignore")
         out, result, _ = mesh_pipeline.denoise_mesh_detailed(mesh, progress=Progress(enabled=False))
     seconds = time.perf_counter() - start
-    roughness = output_choice.measure(mesh)
+    roughness = route.measure(mesh)
     row = {"name": name, "kind": case.kind, "storage": case.storage, "split": case.split, "needs": case.needs,
            "ran": route_of(mesh, out, result), "fine": roughness.fine, "coarse": roughness.coarse,
            "correlation": roughness.correlation,
@@ -90,7 +90,7 @@ def report(rows, errors):
            f"Made by `python -m benchmarks.routing{' --errors' if errors else ''}` on "
            f"{datetime.date.today().isoformat()}. The corpus and the classes: "
            "`benchmarks/routing_corpus.py`; the measure: `skelfilter/mesh/surface_roughness.py`; the "
-           "decision: `skelfilter/mesh/output_choice.py`.", ""]
+           "decision: `skelfilter/mesh/route.py`.", ""]
     for split in ("tuning", "held-aside"):
         part = [r for r in rows if r["split"] == split]
         if not part:

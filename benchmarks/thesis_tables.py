@@ -18,7 +18,8 @@ import numpy as np
 from scipy import ndimage
 
 from benchmarks import shapes
-from skelfilter.core import importance, pipeline, pruning_rules, reconstruct, skeleton, stage
+from skelfilter.core import importance, pipeline, reconstruct, skeleton, stage
+from skelfilter.core.decision import pruning_rules
 from skelfilter.core.distance import distance_and_features
 from skelfilter.core.synthetic_noise import add_noise
 from skelfilter.evaluation.metrics import thesis_measures

@@ -50,7 +50,8 @@ from scipy.sparse import csgraph
 
 from benchmarks import oracle, quality, shapes
 from experiments import ball_oracle
-from skelfilter.core import noise_estimate, saliency, stage
+from skelfilter.core import saliency, stage
+from skelfilter.core.decision import noise_estimate
 from skelfilter.core.neighbourhood import unravel
 from skelfilter.core.reconstruct import union_of_balls
 from skelfilter.evaluation import metrics

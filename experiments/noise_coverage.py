@@ -3,9 +3,9 @@
     python -m experiments.noise_coverage [--groups clean thesis segmentation] [--shapes NAME ...]
 
 Each case's mask is cropped and padded as `skelfilter.core.pipeline.denoise_volume` does, its
-skeleton pruned by the default's foreground stage (`pipeline.stage_at_noise_scale`: at t, and at t / 2
+skeleton pruned by the default's foreground stage (`stage_pruning.stage_at_noise_scale`: at t, and at t / 2
 and t / 4 where that keeps under a quarter of the shape and finds nothing), and the estimate
-(`skelfilter.core.noise_estimate.estimate_noise`) taken on what the pruning removed. Groups:
+(`skelfilter.core.decision.noise_estimate.estimate_noise`) taken on what the pruning removed. Groups:
 
 - ``clean``: the 17 shapes of `shapes.SHAPES` voxelized on the grids of `CLEAN_GRIDS` (128-224
   voxels; at two paddings the cells over which the coverage is counted fall differently on the
@@ -23,6 +23,7 @@ import numpy as np
 
 from benchmarks import quality, shapes, volumes
 from skelfilter.core import pipeline
+from skelfilter.core.decision import stage_pruning
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.mesh.voxelize import grid_for_bounds, voxelize_on_grid
 from skelfilter.runtime.progress import Progress
@@ -35,7 +36,7 @@ def estimate(mask):
     mask = mask[pipeline._crop(mask)]
     params, pad = pipeline._cubic_params(mask, pipeline.resolve_params())
     padded = np.pad(mask, pad)
-    return pipeline.stage_at_noise_scale(padded, params, "bumps", Progress(enabled=False))[1]
+    return stage_pruning.stage_at_noise_scale(padded, params, "bumps", Progress(enabled=False))[1]
 
 
 def cases(group, names):

@@ -36,7 +36,8 @@ import numpy as np
 from scipy import ndimage
 
 from benchmarks import oracle, quality, shapes
-from skelfilter.core import feature_restore, noise_estimate, pipeline, pruning_rules
+from skelfilter.core import pipeline
+from skelfilter.core.decision import feature_restore, noise_estimate, pruning_rules
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.params import DenoiseParams
 

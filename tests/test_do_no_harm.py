@@ -12,6 +12,7 @@ import trimesh
 from scipy import ndimage
 
 from skelfilter.core import pipeline
+from skelfilter.core.decision import stage_pruning
 from skelfilter.core.synthetic_noise import add_noise
 from skelfilter.errors import ParameterError
 from skelfilter.evaluation import metrics
@@ -221,7 +222,7 @@ def test_sparse_bumps_on_a_chair_are_measured_at_a_finer_pruning(chair_160, monk
     assert left < 0.35  # measured 0.23
     assert metrics.thin_parts_kept(result.mask, thin) > 0.98
     assert np.count_nonzero(chair_160 & ~result.mask) < 0.01 * np.count_nonzero(chair_160)
-    monkeypatch.setattr(pipeline, "FINER_THRESHOLDS", ())
+    monkeypatch.setattr(stage_pruning, "FINER_THRESHOLDS", ())
     assert pipeline.denoise_volume(noise.noisy).voxels_changed == 0
 
 

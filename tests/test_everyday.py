@@ -12,7 +12,7 @@ from PIL import Image
 
 from skelfilter.evaluation import metrics
 from skelfilter.io import mesh_files
-from skelfilter.mesh import fine_pass, normal_filtering, output_choice, vertex_projection, voxelize
+from skelfilter.mesh import fine_pass, normal_filtering, route, vertex_projection, voxelize
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.mesh.closest_points import MeshSurface
 from skelfilter.params import DenoiseParams
@@ -125,10 +125,10 @@ def test_open_scan_stays_open_and_on_its_surface():
 def test_solid_share_tells_open_from_closed():
     scan = mesh_files.load_mesh(SCAN)
     grid = voxelize.grid_for_bounds(scan.bounds, 96, 8)
-    assert output_choice.solid_share(voxelize.voxelize_on_grid(scan, grid), scan, grid) < 0.9
+    assert route.solid_share(voxelize.voxelize_on_grid(scan, grid), scan, grid) < 0.9
     sphere = trimesh.creation.icosphere(4)
     grid = voxelize.grid_for_bounds(sphere.bounds, 64, 8)
-    assert output_choice.solid_share(voxelize.voxelize_on_grid(sphere, grid), sphere, grid) > 0.99
+    assert route.solid_share(voxelize.voxelize_on_grid(sphere, grid), sphere, grid) > 0.99
 
 
 def test_closed_output_on_request_is_watertight():

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from skelfilter.core import feature_restore, noise_estimate
+from skelfilter.core.decision import feature_restore, noise_estimate
 from skelfilter.core.line_opening import line_opening
 
 

@@ -9,8 +9,8 @@ from scipy import ndimage, sparse
 from scipy.sparse import csgraph
 from scipy.spatial import cKDTree
 
+from skelfilter.core.decision.pruning_rules import search_cap
 from skelfilter.core.importance import boundary_layer, euclidean_importance, geodesic_estimate, geodesic_importance
-from skelfilter.core.pruning_rules import search_cap
 from skelfilter.errors import ParameterError
 
 

@@ -9,7 +9,7 @@ import trimesh
 from conftest import load
 
 from skelfilter import add_noise, denoise_volume
-from skelfilter.core.pruning_rules import search_cap
+from skelfilter.core.decision.pruning_rules import search_cap
 from skelfilter.errors import ParameterError
 from skelfilter.mesh.voxelize import voxelize
 from skelfilter.params import DenoiseParams
@@ -98,7 +98,7 @@ def test_default_passes_a_clean_cube_through():
 
 
 def test_thin_part_rule_against_brute_force():
-    from skelfilter.core.selection import thin_part
+    from skelfilter.core.decision.selection import thin_part
 
     rng = np.random.default_rng(0)
     shape = (20, 20, 20)

@@ -11,8 +11,8 @@ import trimesh
 from skelfilter.errors import InputError
 from skelfilter.evaluation import metrics
 from skelfilter.io import mesh_files
-from skelfilter.mesh import output_choice, surface_roughness
 from skelfilter.mesh import pipeline as mesh_pipeline
+from skelfilter.mesh import route, surface_roughness
 from skelfilter.runtime.progress import Progress
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -60,8 +60,8 @@ def test_samples_lie_on_the_faces_uniformly_by_area():
 def test_roughness_sees_noise_not_curvature_nor_coarseness():
     for clean in (trimesh.creation.icosphere(1), trimesh.creation.icosphere(5), trimesh.creation.box(),
                   trimesh.creation.cylinder(0.3, 1.0, sections=8), trimesh.creation.torus(1.0, 0.3)):
-        assert output_choice.measure(clean).fine < output_choice.CLEAN_ROUGHNESS
-    noisy = output_choice.measure(_noisy(trimesh.creation.icosphere(5), 0.2))
+        assert route.measure(clean).fine < route.CLEAN_ROUGHNESS
+    noisy = route.measure(_noisy(trimesh.creation.icosphere(5), 0.2))
     assert noisy.noisy and not noisy.skeleton_scale
 
 
@@ -74,7 +74,7 @@ def test_a_clean_coarse_mesh_and_its_stl_come_back_as_they_were(tmp_path):
         assert any("comes back as it was" in n for n in progress.notes)
         said = out.metadata["skelfilter"]  # what ran, for a library caller
         assert said["route"] == "as it was" and said["output"] == "input" and not said["fine_pass"]
-        assert said["roughness"]["fine_degrees"] < output_choice.CLEAN_ROUGHNESS and said["noise"] == {}
+        assert said["roughness"]["fine_degrees"] < route.CLEAN_ROUGHNESS and said["noise"] == {}
 
 
 def test_a_low_poly_model_and_its_stl_read_clean_though_its_faces_turn_like_noise(tmp_path):
@@ -82,12 +82,12 @@ def test_a_low_poly_model_and_its_stl_read_clean_though_its_faces_turn_like_nois
     # the shape (Moran's I 0.68); the same on its STL, whose triangles keep their corners apart
     ant = mesh_files.load_mesh(os.path.join(ROOT, "tests", "data", "ant.ply"))
     for given in (ant, _as_stl(ant, tmp_path)):
-        roughness = output_choice.measure(given)
-        assert roughness.fine >= output_choice.CLEAN_ROUGHNESS and roughness.correlation > 0.6
+        roughness = route.measure(given)
+        assert roughness.fine >= route.CLEAN_ROUGHNESS and roughness.correlation > 0.6
         assert not roughness.noisy and "its faces turning with the shape" in roughness.describe()
     # vertex noise on a dense mesh pushes neighbours apart: noisy still
-    noisy = output_choice.measure(_noisy(trimesh.creation.icosphere(5), 0.2))
-    assert noisy.noisy and noisy.correlation < output_choice.SHAPE_CORRELATION
+    noisy = route.measure(_noisy(trimesh.creation.icosphere(5), 0.2))
+    assert noisy.noisy and noisy.correlation < route.SHAPE_CORRELATION
 
 
 def test_fine_pass_on_smooths_a_clean_mesh_and_off_leaves_a_noisy_one():
@@ -101,8 +101,8 @@ def test_fine_pass_on_smooths_a_clean_mesh_and_off_leaves_a_noisy_one():
     assert np.array_equal(out.vertices, noisy.vertices)
     said = " ".join(progress.notes)
     assert "as it is (fine pass off)" in said and "smoothed" not in said  # says what ran
-    route = out.metadata["skelfilter"]
-    assert route["route"] == "fine pass" and not route["fine_pass"] and "fine pass off" in route["reason"]
+    said = out.metadata["skelfilter"]
+    assert said["route"] == "fine pass" and not said["fine_pass"] and "fine pass off" in said["reason"]
 
 
 def test_an_stl_file_is_denoised_like_the_obj(tmp_path):
@@ -126,16 +126,16 @@ def test_bumps_on_a_decimated_mesh_go_to_the_voxel_stage():
     # the thesis' stripes at 96 voxels (at 64 the voxel stage, re-voxelizing at 96, finds them on 6 %)
     marching, _, _ = mesh_pipeline.noisy_mesh(trimesh.creation.box((1.0, 0.8, 0.6)), resolution=96, seed=1)
     noisy = decimate(marching, len(marching.faces) // 3)
-    roughness = output_choice.measure(noisy)
+    roughness = route.measure(noisy)
     assert roughness.skeleton_scale
     progress = Progress(enabled=False)
     out = mesh_pipeline.denoise_mesh(noisy, progress=progress)
     assert any("noise at the skeleton scale removed" in n for n in progress.notes)
     assert len(out.faces) != len(noisy.faces)  # a new closed mesh
-    route = out.metadata["skelfilter"]
-    assert route["route"] == "voxel stage" and route["output"] == "closed"
-    assert route["reason"] == "noise at the skeleton scale removed" and route["noise"]["foreground"]["found"]
-    assert route["noise"]["foreground"]["height_voxels"] > 0 and route["roughness"]["coarse_degrees"] >= 0
+    said = out.metadata["skelfilter"]
+    assert said["route"] == "voxel stage" and said["output"] == "closed"
+    assert said["reason"] == "noise at the skeleton scale removed" and said["noise"]["foreground"]["found"]
+    assert said["noise"]["foreground"]["height_voxels"] > 0 and said["roughness"]["coarse_degrees"] >= 0
 
 
 def test_an_open_surface_comes_back_by_the_fine_pass_and_says_why():

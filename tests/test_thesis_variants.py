@@ -10,12 +10,12 @@ from scipy import ndimage as ndi
 from test_saliency import _random_skeleton
 
 from skelfilter import add_noise, denoise_volume
-from skelfilter.core import pruning_rules
+from skelfilter.core.decision import pruning_rules
+from skelfilter.core.decision.pruning_rules import search_cap
+from skelfilter.core.decision.selection import root_component, saliency_measure
 from skelfilter.core.edt_filters import filtered_radii, flat_projection, kernel_filter, least_squares
 from skelfilter.core.neighbourhood import OFFSETS_26, unravel
-from skelfilter.core.pruning_rules import search_cap
 from skelfilter.core.saliency import direct_rho_plus, importance_gradient_velocity
-from skelfilter.core.selection import root_component, saliency_measure
 from skelfilter.mesh.voxelize import voxelize
 from skelfilter.params import DenoiseParams
 

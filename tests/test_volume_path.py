@@ -10,6 +10,7 @@ from scipy import ndimage
 from skelfilter import add_noise, denoise_volume
 from skelfilter.core import pipeline, surface_field, volume_fine_pass
 from skelfilter.core import spacing as voxel_spacing
+from skelfilter.core.decision import stage_pruning
 from skelfilter.runtime.progress import Progress
 
 
@@ -41,10 +42,10 @@ def _previous_path(volume):
     if smoothed is not volume:
         branch = "smoothed passes through"
         result, stages_input = pipeline._denoise_cubic(smoothed, params, progress), smoothed
-        if not pipeline.passes_through(params, result):
+        if not stage_pruning.passes_through(params, result):
             branch = "input passes through"
             on_input = pipeline._denoise_cubic(volume, params, progress)
-            if not pipeline.passes_through(params, on_input):
+            if not stage_pruning.passes_through(params, on_input):
                 branch = "on the input"
                 result, stages_input = on_input, volume
     input_field = voxel_spacing.signed_distance(stages_input, (1.0, 1.0, 1.0))

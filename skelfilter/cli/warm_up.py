@@ -12,7 +12,7 @@ import time
 
 import trimesh
 
-from skelfilter.core import pruning_rules
+from skelfilter.core.decision import pruning_rules
 from skelfilter.io import mesh_files
 from skelfilter.io.samples import sample_path
 from skelfilter.mesh import guided_filtering, normal_filtering, voxelize

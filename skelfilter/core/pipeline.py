@@ -1,18 +1,24 @@
 """The adapted saliency pipeline (thesis §8.1.1) on volumes: composition of the stages.
 
-grid -> distance & feature fields -> skeleton -> importance -> derivative measure -> rho+ -> pruned
-skeleton -> EDT filter -> reconstruction; foreground stage for bumps, background stage for dents.
-Meshes go through :mod:`skelfilter.mesh.pipeline`, which voxelizes them and runs this.
+A stage, on the foreground's set for bumps and then the background's for dents, module by module:
+distance & feature fields (`distance`) -> skeleton (`skeleton`) -> importance (`importance`) ->
+derivative measure and rho+ (`saliency`) -> the pruning rule and selection (`decision.pruning_rules`,
+`decision.selection`, applied by `stage.pruned_stage`) -> EDT filter (`edt_filters`) -> reconstruction
+(`reconstruct`) -> noise measured and the pruning at the noise's scale (`decision.noise_estimate`,
+`decision.stage_pruning`) -> features given back (`decision.feature_restore`); then specks and
+needles (`edt_filters`) and the surface field (`surface_field`). A volume's fine pass
+(`volume_fine_pass`) runs before the stages. Meshes go through :mod:`skelfilter.mesh.pipeline`, which
+voxelizes them and runs this.
 """
 
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from skelfilter.core import edt_filters, feature_restore, noise_estimate, pruning_rules, surface_field, volume_fine_pass
+from skelfilter.core import edt_filters, surface_field, volume_fine_pass
 from skelfilter.core import spacing as voxel_spacing
+from skelfilter.core.decision import feature_restore, stage_pruning
 from skelfilter.core.neighbourhood import bounding_box
-from skelfilter.core.stage import pruned_stage, saliency_stage, skeleton_fields
 from skelfilter.errors import InputError, ParameterError, ResourceError
 from skelfilter.parameter_fields import build, limits_of, with_parameter_entries
 from skelfilter.params import DenoiseParams, VolumeParams
@@ -23,11 +29,6 @@ from skelfilter.runtime.progress import Progress
 # Voxels of the input kept around the set's bounding box, with the foreground stage alone (the default):
 # more than the fine pass's widest Gaussian reaches (4 sigma); the rest of the grid is not looked at.
 CROP_MARGIN = 12
-# A pruning that keeps less of its set than this, and finds no noise on what it removed, was too coarse
-# for the shape (thin legs, a seat, a wing): every removed part stands taller than noise above the little
-# that is left. The stage then prunes its skeleton again at t divided by each of FINER_THRESHOLDS in turn.
-LEAST_KEPT = 0.25
-FINER_THRESHOLDS = (2, 4)
 # Voxels: the field given to a voxel the surface passes through exactly on the way back to the input's
 # thick slices, with the sign of the input's voxel.
 SURFACE_TIE = 1e-3
@@ -63,7 +64,7 @@ def denoise_padded(volume, params, progress, foreground=None):
     if params.stages in ("both", "foreground"):
         with progress.stage("foreground"):
             if foreground is None:
-                foreground = stage_at_noise_scale(current, params, "bumps", progress)
+                foreground = stage_pruning.stage_at_noise_scale(current, params, "bumps", progress)
             stage, estimate = foreground
             if feature_restore.measures_noise(params):
                 result.noise["foreground"] = feature_restore.keep_features(current, stage, params, "bumps", progress,
@@ -85,7 +86,7 @@ def denoise_padded(volume, params, progress, foreground=None):
         background = ~current
         _fill_outside(background, (slice(1, -1),) * 3, False)
         with progress.stage("background"):
-            stage, estimate = stage_at_noise_scale(background, params, "dents", progress)
+            stage, estimate = stage_pruning.stage_at_noise_scale(background, params, "dents", progress)
             if feature_restore.measures_noise(params):
                 result.noise["background"] = feature_restore.keep_features(background, stage, params, "dents",
                                                                            progress, estimate)
@@ -102,7 +103,7 @@ def denoise_padded(volume, params, progress, foreground=None):
         np.negative(field, out=field)
         _fill_outside(field, tuple(slice(b.start - 1, b.stop + 1) for b in box), -1.0)
     # A shape in which no stage found noise passes through whole: no specks or spikes taken off either.
-    unchanged = passes_through(params, result)
+    unchanged = stage_pruning.passes_through(params, result)
     if params.edt_filter == "minify" and not unchanged:
         with progress.step("specks"):
             specks = edt_filters.specks(current, params.minify_radius)
@@ -119,52 +120,6 @@ def denoise_padded(volume, params, progress, foreground=None):
     result.mask = current
     result.field = field
     return result
-
-
-def stage_at_noise_scale(stage_set, params, side, progress):
-    """One stage on ``stage_set`` (`stage.saliency_stage`), its skeleton pruned at finer thresholds
-    where the pruning at t leaves too little to measure noise against; returns the `StageResult` and
-    the noise estimate of its pruning (``side``: ``"bumps"`` or ``"dents"``; None where the stage
-    prunes as told).
-
-    With ``prune`` measured (`DenoiseParams.prunes_as_told` false), a pruning that keeps under
-    `LEAST_KEPT` of the set and finds no noise on what it removed (`noise_estimate.estimate_noise`) is
-    done again on the same skeleton and importance at t / 2, then
-    t / 4 (`FINER_THRESHOLDS`). On a chair or a stool the pruning at t keeps a few percent (the seat's
-    core): every leg and slat then stands higher than noise above it, none of the bumps on them is
-    counted, and the input passed through whole with its noise. The finer pruning keeps the legs' and
-    seat's cores, so the bumps on them are measured and taken off; a clean thin shape finds no noise at
-    the finer thresholds either and passes through as before.
-    """
-    if params.prunes_as_told:
-        return saliency_stage(stage_set, params, progress), None
-    def measured(stage):
-        with progress.step("noise estimate"):
-            return noise_estimate.estimate_noise(stage_set, stage.mask, params.resolution, side)
-
-    fields = skeleton_fields(stage_set, params, progress)
-    stage = pruned_stage(stage_set, fields.copy(), params, progress)
-    size, threshold, cap = np.count_nonzero(stage_set), params.threshold_voxels, pruning_rules.search_cap(params)
-    if np.count_nonzero(stage.mask) >= LEAST_KEPT * size:
-        fields = None  # no finer pruning can follow: the skeleton's arrays go before the noise is measured
-    estimate = measured(stage)
-    for divisor in FINER_THRESHOLDS:
-        kept = np.count_nonzero(stage.mask)
-        if kept >= LEAST_KEPT * size or estimate.found:
-            break
-        progress.note(f"the pruning at t = {threshold:g} voxels kept {kept / size:.0%} of the set and found no "
-                      f"noise on what it removed: pruned again at t / {divisor}")
-        threshold = params.threshold_voxels / divisor
-        # the importance was searched to the cap of t: the finer pruning reads it as it is
-        finer = params.with_(threshold=threshold, threshold_relative=None, geodesic_cap=cap)
-        stage = pruned_stage(stage_set, fields.copy(), finer, progress)
-        estimate = measured(stage)
-    return stage, estimate
-
-
-def passes_through(params, result):
-    """Whether the stages gave their input back: ``prune`` measured, and no stage found noise."""
-    return not params.prunes_as_told and not any(e.found for e in result.noise.values())
 
 
 def _fill_outside(volume, box, value):
@@ -347,10 +302,10 @@ def _fine_pass_then_stages(cubic, params, progress, sampled=None):
             result = None
             if foreground is None or not foreground[1][1].found:
                 result = _denoise_cubic(smoothed, params, progress, foreground)
-            if result is None or not passes_through(params, result):
+            if result is None or not stage_pruning.passes_through(params, result):
                 progress.note("noise at the skeleton's scale: the fine pass is undone, the stages run on the input")
                 on_input = _denoise_cubic(cubic, params, progress)
-                if not passes_through(params, on_input):
+                if not stage_pruning.passes_through(params, on_input):
                     return on_input, cubic
                 # passed through, the input would keep all its noise
                 progress.note("no noise at the skeleton's scale on the input: the result after the fine pass is kept")
@@ -390,7 +345,7 @@ def _foreground_first(volume, params, progress):
     params, pad = _cubic_params(volume, params)
     padded = np.pad(volume, pad)
     with progress.stage("foreground"):
-        return padded, stage_at_noise_scale(padded, params, "bumps", progress)
+        return padded, stage_pruning.stage_at_noise_scale(padded, params, "bumps", progress)
 
 
 def _denoise_cubic(volume, params, progress, foreground=None):

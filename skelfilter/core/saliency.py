@@ -1,5 +1,5 @@
 """Pruning measures of the skeleton: the velocity fields (§4.2.1), the derivative measure (§4.2) and
-the streamline importance rho+ (§5.2.1 and §5.2.2). `skelfilter.core.selection` keeps voxels by them.
+the streamline importance rho+ (§5.2.1 and §5.2.2). `skelfilter.core.decision.selection` keeps voxels by them.
 
 Everything here works on flat arrays over the skeleton voxels, linked by
 their 26-adjacency; ``rho`` exists only on the skeleton, so its derivative

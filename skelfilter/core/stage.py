@@ -10,17 +10,8 @@ from functools import partial
 
 import numpy as np
 
-from skelfilter.core import (
-    edt_filters,
-    importance,
-    pruning_rules,
-    reconstruct,
-    saliency,
-    selection,
-    skeleton,
-    surface_field,
-    unified,
-)
+from skelfilter.core import edt_filters, importance, reconstruct, saliency, skeleton, surface_field, unified
+from skelfilter.core.decision import pruning_rules, selection
 from skelfilter.core.distance import distance_and_features
 from skelfilter.core.neighbourhood import unravel
 

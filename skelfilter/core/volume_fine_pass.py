@@ -27,7 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from skelfilter.core import edt_filters, feature_restore
+from skelfilter.core import edt_filters
+from skelfilter.core.decision import feature_restore
 from skelfilter.core.gaussian_filter import gaussian_filter  # scipy's (mode reflect), over the cores
 from skelfilter.core.neighbourhood import bounding_box
 

@@ -7,10 +7,11 @@ import numpy as np
 import trimesh
 
 from skelfilter.core import surface_field, synthetic_noise
-from skelfilter.core.pipeline import DenoiseResult, denoise_padded, padding_from, passes_through, resolve_params
+from skelfilter.core.decision.stage_pruning import passes_through
+from skelfilter.core.pipeline import DenoiseResult, denoise_padded, padding_from, resolve_params
 from skelfilter.errors import InputError, OpenSurfaceError, ParameterError, ResourceError
 from skelfilter.io.mesh_files import validate_mesh
-from skelfilter.mesh import fine_pass, marching_cubes, output_choice, route, vertex_projection, voxelize
+from skelfilter.mesh import fine_pass, marching_cubes, route, vertex_projection, voxelize
 from skelfilter.mesh.frame import Frame
 from skelfilter.parameter_fields import build, with_parameter_entries
 from skelfilter.params import DenoiseParams, NoiseParams, voxel_fields_given
@@ -150,19 +151,19 @@ def _voxel_stage(mesh, params, chosen, lattice, given, asked, progress):
     routed = chosen.roughness is not None and params.output_mesh == "auto" and not asked
     if routed:
         progress.note(chosen.reason)
-    preferred = output_choice.SKELETON_RESOLUTION if routed else None
+    preferred = route.SKELETON_RESOLUTION if routed else None
     params, lattice = _resolved(mesh, params, lattice, False, progress, preferred)
     output = params.output_mesh
     occupancy, grid = _voxelize(mesh, params.resolution, params.padding_voxels, progress, padding_from(params),
                                 required=output == "closed", lattice=lattice)
     with progress.step("solid check"):
         solid = occupancy.any() and (
-            output_choice.is_closed(mesh.faces)
-            or output_choice.solid_share(occupancy, mesh, grid) >= output_choice.SOLID_SHARE)
+            route.is_closed(mesh.faces)
+            or route.solid_share(occupancy, mesh, grid) >= route.SOLID_SHARE)
     if not solid:
         if output == "closed":
             raise OpenSurfaceError(
-                f"the input is an open surface (less than {100 * output_choice.SOLID_SHARE:g} % of its "
+                f"the input is an open surface (less than {100 * route.SOLID_SHARE:g} % of its "
                 "voxelization lies on it): a new closed mesh of it would be the voxels it happens to enclose, "
                 "not the scan; output_mesh auto or input keeps the surface and smooths it")
         why = (f"the input is an open surface: its own mesh comes back, {route.fine_pass_effect(params)} "
@@ -202,13 +203,13 @@ def _voxel_stage(mesh, params, chosen, lattice, given, asked, progress):
 def _auto_output(params, result, roughness, progress):
     """``output_mesh`` auto after the voxel stage: ``("closed" or "input", why)``, told through ``progress``.
     A new closed mesh where the stages pruned noise at the skeleton's scale (on a mesh not made of
-    voxels, on at least `output_choice.SKELETON_COVERAGE` of the surface), else the input mesh."""
+    voxels, on at least `route.SKELETON_COVERAGE` of the surface), else the input mesh."""
     pruned = not passes_through(params, result) and result.voxels_changed
     found = result.noise.get("foreground")
-    if pruned and roughness is not None and found is not None and found.coverage < output_choice.SKELETON_COVERAGE:
+    if pruned and roughness is not None and found is not None and found.coverage < route.SKELETON_COVERAGE:
         pruned = False  # too little for noise at the skeleton's scale on a mesh not made of voxels
         progress.note(f"noise at the skeleton's scale on {100 * found.coverage:.0f} % of the surface (from "
-                      f"{100 * output_choice.SKELETON_COVERAGE:.0f} % on a mesh not made of voxels): not pruned")
+                      f"{100 * route.SKELETON_COVERAGE:.0f} % on a mesh not made of voxels): not pruned")
     output = "closed" if pruned else "input"
     if output == "input":
         why = "no noise at the skeleton scale"
@@ -282,7 +283,7 @@ def _kept_vertices(mesh, voxels, params, grid, progress, roughness=None):
     and whether the fine pass ran.
 
     The fine pass runs with ``fine_pass`` on; with ``auto``, where vertices moved or the mesh is
-    `_noisy` (``roughness``: its `output_choice.Roughness`, or None for a voxel mesh).
+    `_noisy` (``roughness``: its `route.Roughness`, or None for a voxel mesh).
     """
     # Vertices split along UV seams or by the file format move as one.
     welded, inverse = np.unique(np.asarray(mesh.vertices, dtype=np.float64), axis=0, return_inverse=True)
@@ -295,7 +296,7 @@ def _kept_vertices(mesh, voxels, params, grid, progress, roughness=None):
             vertices, moved = vertex_projection.move_input_vertices(
                 welded, faces, result.mask, occupancy, result.field, surface_field.mask_field(occupancy), grid,
                 max_move=params.threshold_voxels / 2)
-    least_level = output_choice.LEAST_FINE_LEVEL if roughness is not None and roughness.noisy else 0.0
+    least_level = route.LEAST_FINE_LEVEL if roughness is not None and roughness.noisy else 0.0
     smoothing = params.fine_pass == "on" or (
         params.fine_pass == "auto" and (moved.any() or _noisy(welded, faces, roughness, progress)))
     if smoothing:
@@ -321,16 +322,16 @@ def _kept_vertices(mesh, voxels, params, grid, progress, roughness=None):
 
 def _noisy(vertices, faces, roughness, progress):
     """Whether a mesh is noisy: by its ``roughness`` where measured, else (a voxel mesh) by its
-    `output_choice.sampled_normal_roughness` (told through ``progress`` where it is clean)."""
+    `route.sampled_normal_roughness` (told through ``progress`` where it is clean)."""
     if roughness is not None:
         return roughness.noisy
     with progress.step("fine noise"):
-        fine = output_choice.sampled_normal_roughness(trimesh.Trimesh(vertices, faces, process=False))
-    if fine < output_choice.CLEAN_FINE_NOISE:
+        fine = route.sampled_normal_roughness(trimesh.Trimesh(vertices, faces, process=False))
+    if fine < route.CLEAN_FINE_NOISE:
         progress.note(f"fine noise: each face turns {_degrees(fine):.1f}° from its most parallel neighbour "
-                      f"(median; noise from {_degrees(output_choice.CLEAN_FINE_NOISE):.1f}°): no fine pass, "
+                      f"(median; noise from {_degrees(route.CLEAN_FINE_NOISE):.1f}°): no fine pass, "
                       "the mesh comes back as it was (--fine-pass on smooths it anyway)")
-    return fine >= output_choice.CLEAN_FINE_NOISE
+    return fine >= route.CLEAN_FINE_NOISE
 
 
 def _degrees(normal_difference):

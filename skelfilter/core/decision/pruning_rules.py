@@ -17,7 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from skelfilter.core import saliency, selection
+from skelfilter.core import saliency
+from skelfilter.core.decision import selection
 from skelfilter.presets import PRESETS, RHO_RULE_CAP_FACTOR
 
 DERIVATIVE_NONE, DERIVATIVE_CAPPED, DERIVATIVE_FULL = "none", "capped", "full"

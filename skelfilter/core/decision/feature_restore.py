@@ -2,7 +2,7 @@
 
 Pruning decides voxel by voxel from the skeleton's importance, so a part thinner than the threshold
 goes with the noise whatever its length: a wing, a leg, a fin, a rim. Noise is low (see
-:mod:`skelfilter.core.noise_estimate`); a removed part that stands higher above the kept shape than the
+:mod:`skelfilter.core.decision.noise_estimate`); a removed part that stands higher above the kept shape than the
 noise is a feature, and comes back: what of it a straight run of the shape longer than the noise
 passes through, so that the noise standing on a leg or a wing stays removed. And a pruning that cuts
 a shape in two, or cuts a piece of it loose, removed what joined them: that comes back too.
@@ -11,11 +11,11 @@ a shape in two, or cuts a piece of it loose, removed what joined them: that come
 import numpy as np
 from scipy import ndimage
 
-from skelfilter.core import noise_estimate
+from skelfilter.core.decision import noise_estimate
+from skelfilter.core.decision.noise_estimate import height_above
 from skelfilter.core.distance import distance_transform
 from skelfilter.core.line_opening import line_opening
 from skelfilter.core.neighbourhood import OFFSETS_26, bounding_box, flat_offsets, push
-from skelfilter.core.noise_estimate import height_above
 from skelfilter.runtime.compiled import njit
 
 CUBE = np.ones((3, 3, 3), dtype=bool)
