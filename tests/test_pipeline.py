@@ -6,9 +6,10 @@ from conftest import cube_volume
 
 from skelfilter import add_noise, denoise_volume
 from skelfilter.core.distance import distance_and_features
-from skelfilter.core.pipeline import resolve_params, saliency_stage
+from skelfilter.core.pipeline import resolve_params
 from skelfilter.core.reconstruct import reconstruction, reverse_edt
 from skelfilter.core.skeleton import ie_skeleton
+from skelfilter.core.stage import run_stage
 from skelfilter.core.surface_field import SURFACE_OFFSET
 from skelfilter.runtime.progress import Progress
 
@@ -44,7 +45,7 @@ def noisy_fandisk(fandisk_128):
 def test_stage_one_is_anti_extensive(noisy_fandisk):
     for edt_filter in ("none", "minify"):
         params = resolve_params(edt_filter=edt_filter, resolution=256)
-        stage = saliency_stage(noisy_fandisk.noisy, params, Progress(False))
+        stage = run_stage(noisy_fandisk.noisy, params, Progress(False))
         assert not (stage.mask & ~noisy_fandisk.noisy).any()  # Lemma 7
         assert stage.mask.sum() < noisy_fandisk.noisy.sum()
         # the field's inside is the mask: the mesh and the voxels agree

@@ -1,7 +1,7 @@
 """One stage of the adapted saliency pipeline (thesis §8.1.1 steps 1-5) on a set of voxels.
 
 `skeleton_fields` computes what the pruning reads (distance transform, skeleton, feature points,
-importance); `pruned_stage` prunes, filters the radii and reconstructs; `saliency_stage` is both. The
+importance); `pruned_stage` prunes, filters the radii and reconstructs; `run_stage` is both. The
 split lets an experiment prune one skeleton under several rules without recomputing its importance.
 """
 
@@ -61,7 +61,7 @@ class SkeletonFields:
         return replace(self)
 
 
-def saliency_stage(volume, params, progress):
+def run_stage(volume, params, progress):
     """One stage (§8.1.1 steps 1–5) on the set ``volume``; returns its reconstruction."""
     return pruned_stage(volume, skeleton_fields(volume, params, progress), params, progress)
 

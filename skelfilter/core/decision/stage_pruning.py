@@ -9,7 +9,7 @@ found nothing and gave their input back.
 import numpy as np
 
 from skelfilter.core.decision import noise_estimate, pruning_rules
-from skelfilter.core.stage import pruned_stage, saliency_stage, skeleton_fields
+from skelfilter.core.stage import pruned_stage, run_stage, skeleton_fields
 
 # A pruning that keeps less of its set than this, and finds no noise on what it removed, was too coarse
 # for the shape (thin legs, a seat, a wing): every removed part stands taller than noise above the little
@@ -19,7 +19,7 @@ FINER_THRESHOLDS = (2, 4)
 
 
 def stage_at_noise_scale(stage_set, params, side, progress):
-    """One stage on ``stage_set`` (`stage.saliency_stage`), its skeleton pruned at finer thresholds
+    """One stage on ``stage_set`` (`stage.run_stage`), its skeleton pruned at finer thresholds
     where the pruning at t leaves too little to measure noise against; returns the `StageResult` and
     the noise estimate of its pruning (``side``: ``"bumps"`` or ``"dents"``; None where the stage
     prunes as told).
@@ -34,7 +34,7 @@ def stage_at_noise_scale(stage_set, params, side, progress):
     the finer thresholds either and passes through as before.
     """
     if params.prunes_as_told:
-        return saliency_stage(stage_set, params, progress), None
+        return run_stage(stage_set, params, progress), None
     def measured(stage):
         with progress.step("noise estimate"):
             return noise_estimate.estimate_noise(stage_set, stage.mask, params.resolution, side)
