@@ -168,3 +168,13 @@ def test_the_products_tests_import_no_experiment(path):
                 for t in ([a.name for a in node.names] if isinstance(node, ast.Import)
                           else [node.module or ""] if isinstance(node, ast.ImportFrom) else [])}
     assert not {t for t in imported if t == "experiments" or t.startswith("experiments.")}
+
+
+def test_the_route_and_the_decision_each_have_one_home():
+    # the decision: which balls and voxels stay; every module of it in core.decision, none elsewhere
+    decision = {"pruning_rules", "selection", "stage_pruning", "noise_estimate", "feature_restore"}
+    assert {n.rsplit(".", 1)[1] for n in MODULES if n.startswith("skelfilter.core.decision.")} == decision
+    assert not {n for n in MODULES if n.rsplit(".", 1)[-1] in decision and ".decision." not in n}
+    # the mesh's route: decided in mesh.route alone, which the mesh pipeline and nothing below reads
+    readers = {n for n, p in MODULES.items() if "skelfilter.mesh.route" in set(_imports(n, p))}
+    assert readers <= {"skelfilter.mesh.pipeline"}, readers

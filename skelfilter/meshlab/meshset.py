@@ -69,6 +69,14 @@ def _docstring(description):
     lines += ["", "Raises", "------", "ParameterError",
               "    Unknown parameter, wrong type or value out of range.",
               "InputError", "    The current mesh has no triangles or non-finite vertices."]
+    lines += ["", "Examples", "--------",
+              ">>> import pymeshlab, trimesh",
+              ">>> from skelfilter.meshlab import meshset",
+              ">>> ms = pymeshlab.MeshSet()",
+              ">>> ms.add_mesh(meshset.to_pymeshlab(trimesh.creation.icosphere(subdivisions=3)))",
+              f">>> meshset.{description.python_name}(ms)",
+              ">>> ms.mesh_number(), ms.current_mesh_id()  # the result: a new layer, made current",
+              "(2, 1)"]
     return "\n".join(lines)
 
 
