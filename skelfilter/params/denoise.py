@@ -138,7 +138,6 @@ class DenoiseParams:
         "unchanged; a volume's fine pass runs before it); 'as-told': prune at t whatever the noise; "
         "'preset': the preset's (default: measured; thesis: as-told)",
         choices=("preset", "measured", "as-told"),
-        summary="'measured' (default): prune only where noise is found; 'as-told': prune at t whatever the noise",
     )
     noise_height: float | None = _p(
         None,
