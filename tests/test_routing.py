@@ -73,6 +73,7 @@ def test_a_clean_coarse_mesh_and_its_stl_come_back_as_they_were(tmp_path):
         assert np.array_equal(out.vertices, given.vertices) and np.array_equal(out.faces, given.faces)
         assert any("comes back as it was" in n for n in progress.notes)
         said = out.metadata["skelfilter"]  # what ran, for a library caller
+        assert "skelfilter" not in given.metadata  # on the output only: the input is never modified
         assert said["route"] == "as it was" and said["output"] == "input" and not said["fine_pass"]
         assert said["roughness"]["fine_degrees"] < route.CLEAN_ROUGHNESS and said["noise"] == {}
 
