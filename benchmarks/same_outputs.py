@@ -1,17 +1,20 @@
-"""Whether a change leaves every output as it was: the default's outputs on a corpus, saved by one
-commit and compared bit for bit with another's.
+"""Whether a change leaves every output as it was: the outputs on a corpus, saved by one commit and
+compared bit for bit with another's.
 
-    PYTHONPATH=/path/to/checkout python -m benchmarks.same_outputs save OUT.npz [--corpus routing shapes volumes]
+    PYTHONPATH=. python -m benchmarks.same_outputs save OUT.npz [--corpus routing shapes volumes presets]
     python -m benchmarks.same_outputs compare BEFORE.npz AFTER.npz
 
 ``save`` denoises, with the skelfilter that ``PYTHONPATH`` (or the installed package) gives, every case
 of the corpora named: ``routing`` the routing corpus (`routing_corpus.CASES`, 112 meshes: clean, fine
 noise, skeleton-scale noise), ``shapes`` every quality-benchmark shape with one of two noises at 128
 voxels, ``volumes`` fandisk's and the rocker arm's noisy voxels at 128 through `denoise_volume` and a
-two-label map's surfaces; meshes are saved as vertices and faces, volumes as mask and field. A case
+two-label map's surfaces (all through the default), ``presets`` the thesis presets (``thesis``,
+``thesis-tuned``) on fandisk, the bunny and the chair with the thesis' bumps and dents at 96 voxels, as
+volumes and as meshes; meshes are saved as vertices and faces, volumes as mask and field. A case
 that fails is saved as its error's text. ``compare`` prints every array that differs (and by how
 much) and exits 1 if any does. The meshes of the corpora come from this checkout's ``benchmarks``
-(cached), so two commits denoise the same inputs; run each commit from its own checkout.
+(cached, and read back from the cache on the first run too), so two commits denoise the same inputs; run
+each commit from its own checkout's root.
 """
 
 import argparse
@@ -22,7 +25,7 @@ import time
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-CORPORA = ("routing", "shapes", "volumes")
+CORPORA = ("routing", "shapes", "volumes", "presets")
 SHAPE_NOISES = (("high", {"p": 0.01, "r": 2.1, "h": 7, "l": 4}),
                 ("bumps-dents", {"p": 0.014, "r": 2.1, "h": 3, "l": 6, "dents": True}))
 
@@ -60,17 +63,33 @@ def _volumes():
     yield "label-map", lambda: ("labels", labels)
 
 
-def _outputs(kind, data):
-    """The arrays an input's default output is compared by."""
+def _presets():
+    from benchmarks import shapes
+    from skelfilter.mesh import pipeline as mesh_pipeline
+    from skelfilter.params import NoiseParams
+
+    for name in ("fandisk", "bunny", "chair"):
+        noisy = lambda name=name: mesh_pipeline.noisy_mesh(  # noqa: E731
+            shapes.load(name), NoiseParams(resolution=96, seed=1, dents=True))
+        for preset in ("thesis", "thesis-tuned"):
+            yield f"{name}-{preset}-volume", lambda noisy=noisy, preset=preset: (
+                "volume", noisy()[1].noisy, {"preset": preset})
+            yield f"{name}-{preset}-mesh", lambda noisy=noisy, preset=preset: (
+                "mesh", noisy()[0], {"preset": preset, "resolution": 96})
+
+
+def _outputs(kind, data, params=None):
+    """The arrays an input's output is compared by: the default's, or with ``params`` (a dict of fields)."""
+    params = params or {}
     if kind == "mesh":
         from skelfilter.mesh import pipeline as mesh_pipeline
 
-        out = mesh_pipeline.denoise_mesh(data)
+        out = mesh_pipeline.denoise_mesh(data, **params)
         return {"v": np.asarray(out.vertices), "f": np.asarray(out.faces)}
     if kind == "volume":
         from skelfilter.core.pipeline import denoise_volume
 
-        result = denoise_volume(data)
+        result = denoise_volume(data, **params)
         return {"mask": result.mask, "field": result.field}
     from skelfilter.mesh import marching_cubes
 
@@ -83,7 +102,7 @@ def save(path, corpora):
     import skelfilter
 
     arrays, start = {}, time.perf_counter()
-    cases = {"routing": _routing, "shapes": _shapes, "volumes": _volumes}
+    cases = {"routing": _routing, "shapes": _shapes, "volumes": _volumes, "presets": _presets}
     for corpus in corpora:
         for name, make in cases[corpus]():
             try:
