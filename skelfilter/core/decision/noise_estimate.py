@@ -17,12 +17,8 @@ model's size, and at how much of the surface they are spread over: the share of 
 of `CELL` of the size) holding a peak's top. Noise is found where that share reaches `LEAST_COVERAGE`;
 its height is the `HEIGHT_QUANTILE` quantile of the peaks' heights.
 
-Measured with ``experiments/noise_coverage.py`` after the default's pruning (t = 0.1875 of the size):
-the 17 benchmark shapes clean, as volumes at 128-224 voxels on two grid offsets, cover at most 0.036
-of their cells (a gear's teeth: each tooth's tip is one ridge whose corners rise less than a voxel
-above it); the thesis' noise at 160 voxels is found on the same 150 of 170 cases as with the former
-peaks (5³-window maxima, which counted the teeth's corners apart: 0.10 on the clean gear, noise), and
-the height found is within a voxel of theirs (median +0.03). See ``docs/design/noise-estimate.md``.
+Clean shapes cover at most 0.036 of their cells, well under `LEAST_COVERAGE`; what it was measured on,
+and the peaks it replaced, are in ``docs/design/noise-estimate.md``.
 """
 
 from dataclasses import dataclass
