@@ -29,7 +29,8 @@ START_UP = 0.15  # seconds of the interpreter's own start-up, not drawn
 SCRIPT = ('<!DOCTYPE FilterScript>\n<FilterScript>\n <filter name="Taubin Smooth"/>\n'
           ' <filter name="Skeleton Saliency Denoise">\n'
           '  <Param name="resolution" type="RichInt" value="40"/>\n'
-          '  <Param name="prune" type="RichEnum" value="2"/>\n'
+          '  <Param name="prune" type="RichEnum" value="2" enum_val0="preset" enum_val1="measured"'
+          ' enum_val2="as-told" enum_cardinality="3"/>\n'
           '  <Param name="noise_height" type="RichFloat" value="4"/>\n </filter>\n'
           ' <filter name="Laplacian Smooth"/>\n</FilterScript>\n')
 LAPLACIAN = """
