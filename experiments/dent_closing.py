@@ -28,24 +28,15 @@ from scipy import ndimage
 from benchmarks import quality, shapes
 from experiments.ball_oracle import auc
 from skelfilter.core import pipeline
-from skelfilter.core.decision import noise_estimate
+from skelfilter.core.decision import feature_restore, noise_estimate
 from skelfilter.mesh import pipeline as mesh_pipeline
 
 KINDS = ("clean", "stripes", "high", "sparse", "bumps-dents")
 
 
-def closing(mask, radius):
-    """``mask`` closed by a Euclidean ball of ``radius`` voxels (padded so the ball fits)."""
-    pad = int(np.ceil(radius)) + 1
-    padded = np.pad(mask, pad)
-    grown = ndimage.distance_transform_edt(~padded) <= radius
-    closed = ndimage.distance_transform_edt(grown) > radius
-    return closed[(slice(pad, -pad),) * 3] | mask
-
-
 def dent_reading(kept, radius, resolution):
     """The noise estimate of what closing ``kept`` by ``radius`` fills, read as dents."""
-    closed = closing(kept, radius)
+    closed = feature_restore.ball_closing(kept, radius)
     estimate = noise_estimate.estimate_noise(~kept, ~closed, resolution, "dents")
     filled = int((closed & ~kept).sum())
     surface = int((kept & ~ndimage.binary_erosion(kept)).sum())
