@@ -37,6 +37,7 @@ import trimesh
 
 from benchmarks import oracle, quality_tables, shapes
 from benchmarks.quality_tables import SPLITS
+from skelfilter.core import ball_owners
 from skelfilter.core.synthetic_noise import NoiseResult
 from skelfilter.evaluation import camera, metrics
 from skelfilter.evaluation.comparison import render, report
@@ -341,20 +342,21 @@ def run_variant(case, label, params, setup, save_path):
     except Exception as exc:  # the denoiser under development: record the failure, measure the rest
         return {"seconds": time.perf_counter() - start, "error": f"{type(exc).__name__}: {exc}"}
     seconds = time.perf_counter() - start
+    route = mesh.metadata.pop("skelfilter", None)  # what ran: recorded, not written into the mesh file
     if save_path is not None:
         mesh_files.save_mesh(mesh, save_path)
-    return {"seconds": seconds, "error": None, **score(mesh, prep)}
+    return {"seconds": seconds, "error": None, "route": route, **score(mesh, prep)}
 
 
 def run_oracle(case, setup, save_path):
     """The per-ball oracle (`oracle.owned_oracle`: each voxel of the noisy shape flips where the
     skeleton ball that owns it is centred beyond the clean shape, on either side; then
-    `oracle.seam_smoothed`) as a marching-cubes mesh, scored: the ceiling of a per-ball skeleton
+    `ball_owners.seam_smoothed`) as a marching-cubes mesh, scored: the ceiling of a per-ball skeleton
     decision, written to ``save_path`` unless None."""
     prep = load_case(case, setup)
     start = time.perf_counter()
     noisy = prep.noise.noisy
-    decided = oracle.seam_smoothed(noisy, oracle.owned_oracle(noisy, prep.noise.clean))
+    decided = ball_owners.seam_smoothed(noisy, oracle.owned_oracle(noisy, prep.noise.clean))
     mesh = marching_cubes.mask_to_mesh(decided, prep.grid)
     seconds = time.perf_counter() - start
     if save_path is not None:

@@ -47,7 +47,7 @@ import numpy as np
 from scipy import ndimage, stats
 
 from benchmarks import oracle, quality, shapes
-from skelfilter.core import pipeline, stage
+from skelfilter.core import ball_owners, pipeline, stage
 from skelfilter.core.neighbourhood import unravel
 from skelfilter.core.reconstruct import union_of_balls
 from skelfilter.evaluation import metrics
@@ -136,7 +136,7 @@ def scores(out, noise, thin):
     return {**quality.voxel_measures(out, noise, thin), "genus": metrics.voxel_genus(out)["genus"]}
 
 
-def run_case(shape, kind, seed, resolution, with_default, seam_sigma=oracle.SEAM_SIGMA):
+def run_case(shape, kind, seed, resolution, with_default, seam_sigma=ball_owners.SEAM_SIGMA):
     case = quality.Case(shape, kind, seed)
     _, noise, _ = mesh_pipeline.noisy_mesh(shapes.load(shape), case.noise(resolution))
     thin = metrics.thin_parts(noise.clean, quality.THIN_RADIUS)
@@ -150,12 +150,12 @@ def run_case(shape, kind, seed, resolution, with_default, seam_sigma=oracle.SEAM
     owned = oracle.owned_oracle(noise.noisy, noise.clean)
     row["owned_s"] = time.perf_counter() - start
     row["owned"] = scores(owned, noise, thin)
-    row["seam"] = scores(oracle.seam_smoothed(noise.noisy, owned, seam_sigma), noise, thin)
+    row["seam"] = scores(ball_owners.seam_smoothed(noise.noisy, owned, seam_sigma), noise, thin)
     row["auc"], row["auc_outside"] = separability(noise.noisy, fg, resolution)
     if with_default:
         mask = pipeline.denoise_volume(noise.noisy, DenoiseParams(resolution=resolution)).mask
         row["default"] = scores(mask, noise, thin)
-        row["default_seam"] = scores(oracle.seam_smoothed(noise.noisy, mask, seam_sigma), noise, thin)
+        row["default_seam"] = scores(ball_owners.seam_smoothed(noise.noisy, mask, seam_sigma), noise, thin)
     return row
 
 
@@ -218,8 +218,8 @@ def main(argv=None):
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--resolution", type=int, default=160)
     parser.add_argument("--default", action="store_true", help="also score the default pipeline's voxel output")
-    parser.add_argument("--seam-sigma", type=float, default=oracle.SEAM_SIGMA,
-                        help="voxels: the Gaussian of the seam smoothing (`oracle.seam_smoothed`)")
+    parser.add_argument("--seam-sigma", type=float, default=ball_owners.SEAM_SIGMA,
+                        help="voxels: the Gaussian of the seam smoothing (`ball_owners.seam_smoothed`)")
     parser.add_argument("--out", help="also write every row as JSON here")
     args = parser.parse_args(argv)
     rows = []

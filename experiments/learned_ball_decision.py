@@ -21,7 +21,7 @@ an input that needs nothing.
 the ``high`` noise's (kept for evaluating on a noise never trained on) and ``--leave-out``'s shapes
 (to measure, on tuning shapes, what the model does on a shape it never saw), into ``--model-dir``: a
 classifier of dropped balls and a regressor of the clean radius (the oracle's cap) of the others. ``--weigh voxels``
-weighs each ball by the voxels it owns (`oracle.ray_owners`), so that the loss counts voxels, not
+weighs each ball by the voxels it owns (`ball_owners.ray_owners`), so that the loss counts voxels, not
 balls.
 
 ``--context`` adds to a ball's inputs its skeleton neighbourhood's (`context`: mean and largest radius,
@@ -30,11 +30,11 @@ evaluate alike; ``--context course`` adds how the skeleton runs there too (`cour
 follows a line or a sheet, and how far the ball lies off them).
 
 ``evaluate`` prints, per case, the classifier's AUC on each side and the scores (`ball_oracle.scores`)
-of the outputs the model gives: the owned output (`oracle.owned_output`: the voxels of dropped
+of the outputs the model gives: the owned output (`ball_owners.owned_output`: the voxels of dropped
 balls flip), the same with the drop chances averaged over the skeleton (`smoothed_on_skeleton`),
 dropped above each of ``--thresholds`` (``--background-threshold``: the background's, where it
 differs), that output `rescued`: the noisy shape's voxels that a kept ball covers, its radius capped at
-the predicted clean radius, put back on both sides; and both seam smoothed (`oracle.seam_smoothed`).
+the predicted clean radius, put back on both sides; and both seam smoothed (`ball_owners.seam_smoothed`).
 """
 
 import argparse
@@ -48,9 +48,9 @@ import numpy as np
 from scipy import ndimage, sparse
 from scipy.sparse import csgraph
 
-from benchmarks import oracle, quality, shapes
+from benchmarks import quality, shapes
 from experiments import ball_oracle
-from skelfilter.core import saliency, stage
+from skelfilter.core import ball_owners, saliency, stage
 from skelfilter.core.decision import noise_estimate
 from skelfilter.core.neighbourhood import unravel
 from skelfilter.core.reconstruct import union_of_balls
@@ -118,7 +118,7 @@ def side_measures(side, clean_side, estimate_side):
 
 
 def _sides(noise):
-    bounded = oracle.bounded_background
+    bounded = ball_owners.bounded_background
     return (("fg", noise.noisy, noise.clean, "bumps"),
             ("bg", bounded(noise.noisy), bounded(noise.clean), "dents"))
 
@@ -230,9 +230,9 @@ def load(folder, shape, kind, name=None, with_context=None):
 
 
 def owners(shape, kind, height=None):
-    """`oracle.ray_owners` of both sides of a case, and the case's noise masks."""
+    """`ball_owners.ray_owners` of both sides of a case, and the case's noise masks."""
     _, noise = _noise(shape, kind, height)
-    return {name: oracle.ray_owners(side) for name, side, _, _ in _sides(noise)}, noise
+    return {name: ball_owners.ray_owners(side) for name, side, _, _ in _sides(noise)}, noise
 
 
 def _model_file(folder, weigh, with_context):
@@ -310,17 +310,17 @@ def evaluate(cases, folder, weigh="balls", thresholds=(0.5,), with_context=None,
                     for side in ("fg", "bg")}
         kept_radii = {side: np.minimum(parts[side][3], np.maximum(regressor.predict(parts[side][1]), 0))
                       for side in ("fg", "bg")}
-        outputs = {"model, owned": oracle.owned_output(noise.noisy, owned["fg"], owned["bg"], dropped["fg"],
+        outputs = {"model, owned": ball_owners.owned_output(noise.noisy, owned["fg"], owned["bg"], dropped["fg"],
                                                             dropped["bg"])}
         for t in thresholds:
             background = t if background_threshold is None else background_threshold
             drop = {"fg": smoothed["fg"] >= t, "bg": smoothed["bg"] >= background}
-            out = oracle.owned_output(noise.noisy, owned["fg"], owned["bg"], drop["fg"], drop["bg"])
+            out = ball_owners.owned_output(noise.noisy, owned["fg"], owned["bg"], drop["fg"], drop["bg"])
             outputs[f"model, owned, smoothed {t:g}"] = out
             kept = rescued(out, parts, drop, kept_radii, noise.noisy)
             outputs[f"model, owned, smoothed {t:g}, rescued"] = kept
-            outputs[f"model, owned, smoothed {t:g}, seam"] = oracle.seam_smoothed(noise.noisy, out)
-            outputs[f"model, owned, smoothed {t:g}, rescued, seam"] = oracle.seam_smoothed(noise.noisy, kept)
+            outputs[f"model, owned, smoothed {t:g}, seam"] = ball_owners.seam_smoothed(noise.noisy, out)
+            outputs[f"model, owned, smoothed {t:g}, rescued, seam"] = ball_owners.seam_smoothed(noise.noisy, kept)
         for name, out in outputs.items():
             s = ball_oracle.scores(out, noise, thin)
             print(f"{case.name:24s} {case.split:9s} {name:28s} AUC fg {aucs[0]:.3f} bg {aucs[1]:.3f} | noise left "

@@ -36,7 +36,7 @@ import numpy as np
 from scipy import ndimage
 
 from benchmarks import oracle, quality, shapes
-from skelfilter.core import pipeline
+from skelfilter.core import ball_owners, pipeline
 from skelfilter.core.decision import feature_restore, noise_estimate, pruning_rules
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.params import DenoiseParams
@@ -160,13 +160,13 @@ def variants(case, median):
         yield "background, foreground estimate", pipeline.denoise_volume(noisy, params.with_(stages="both")).mask
     for sigma in (2.0, 3.0):
         reading = ndimage.gaussian_filter(noisy.astype(np.float32), sigma) >= 0.5
-        yield f"proxy g{sigma}", oracle.seam_smoothed(noisy, oracle.owned_oracle(noisy, reading))
+        yield f"proxy g{sigma}", ball_owners.seam_smoothed(noisy, oracle.owned_oracle(noisy, reading))
     if median:
         signed = (ndimage.distance_transform_edt(noisy) - ndimage.distance_transform_edt(~noisy)).astype(np.float32)
         for width in (7, 11):
             reading = ndimage.median_filter(signed, size=width) > 0
             yield f"median {width}", reading
-            yield f"proxy median {width}", oracle.seam_smoothed(noisy, oracle.owned_oracle(noisy, reading))
+            yield f"proxy median {width}", ball_owners.seam_smoothed(noisy, oracle.owned_oracle(noisy, reading))
 
 
 def main(argv=None):

@@ -14,7 +14,7 @@ _THESIS = {"stages": "both", "threshold": 18.0, "threshold_relative": None, "cap
            "unchanged_surface": "reconstruction", "thin_radius_relative": 1.0, "output_mesh": "closed",
            "keep_features": "off", "prune": "as-told", "fine_pass": "off", "surface": "plain"}
 PRESETS = {
-    "default": {"stages": "foreground", "threshold": None, "threshold_relative": 30.0 / 160.0,
+    "default": {"stages": "auto", "threshold": None, "threshold_relative": 30.0 / 160.0,
                 "cap_factor": 1.0, "unchanged_surface": "input", "thin_radius_relative": 4.0 / 160.0,
                 "output_mesh": "auto", "keep_features": "on", "prune": "measured", "fine_pass": "auto",
                 "rho_plus_from": "ahead", "derivative_min_rho": 7.0, "surface": "smooth"},

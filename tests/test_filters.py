@@ -41,7 +41,7 @@ def test_descriptions_are_read_off_the_dataclasses():
     d = {p.name: p for p in SKELETON_SALIENCY_DENOISE.parameters}
     assert (d["resolution"].rich_type, d["threshold"].rich_type, d["stages"].rich_type) == (
         "RichInt", "RichFloat", "RichEnum")
-    assert d["stages"].choices == ("preset", "both", "foreground", "background")
+    assert d["stages"].choices == ("preset", "both", "foreground", "background", "auto")
     assert d["preset"].choices == ("default", "thesis", "thesis-tuned")
     assert (d["threshold"].measure, d["threshold_relative"].measure, d["k"].measure) == (
         "absolute", "relative", "")

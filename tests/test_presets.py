@@ -20,7 +20,7 @@ def test_presets_fill_only_the_unset_fields():
     assert (thesis.stages, thesis.threshold_voxels, search_cap(thesis)) == ("both", 18.0, 36.0)
     default = DenoiseParams(resolution=256)
     assert DenoiseParams().resolution is None  # chosen from the mesh
-    assert default.stages == "foreground"
+    assert default.stages == "auto"
     # t is a fraction of the longest side: 30 voxels at 160, the same size in the world at 256
     assert DenoiseParams(resolution=160).threshold_voxels == 30.0
     assert DenoiseParams(resolution=256).threshold_voxels == 48.0

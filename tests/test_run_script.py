@@ -287,7 +287,7 @@ DENOISE = "Skeleton Saliency Denoise"
      r"resolution is a RichInt"),
     (one_filter(DENOISE, 'name="stages" value="0" enum_val0="all" type="RichEnum"'),
      r"bad.mlx:4: filter 'Skeleton Saliency Denoise', parameter 'stages': stages must be one of preset, both, "
-     r"foreground, background, got 'all'"),
+     r"foreground, background, auto, got 'all'"),
     (one_filter(DENOISE, 'name="resolution" value="8" type="RichInt"'),
      r"bad.mlx:3: filter 'Skeleton Saliency Denoise': resolution must be an integer in \[16, 4096\], got 8"),
     (one_filter("Add Skeleton Noise", 'name="l" value="2" type="RichInt"',

@@ -97,3 +97,16 @@ def test_the_dent_reading_fills_a_pit_and_nothing_on_a_clean_cube():
     cube[19:21, 19:21, 28:32] = False  # a pit 2 wide, 4 deep in the top face
     reading = dent_closing.dent_reading(cube, 3.0, 40)
     assert reading["filled"] > 0 and reading["depth"] > 0
+
+
+def test_the_majority_proxy_takes_a_bump_and_a_dent_and_the_chamfer_is_zero_on_itself():
+    from experiments import majority_reading
+    clean = np.zeros((48, 48, 48), bool)
+    clean[8:40, 8:40, 8:40] = True
+    noisy = clean.copy()
+    noisy[18:21, 18:21, 40:43] = True  # a bump
+    noisy[28:31, 28:31, 37:40] = False  # a dent
+    decided, reading = majority_reading.proxy(noisy, 9)
+    assert not decided[18:21, 18:21, 41:43].any() and decided[28:31, 28:31, 37:39].all()
+    assert majority_reading.surface_chamfer(clean, clean) == 0
+    assert majority_reading.surface_chamfer(noisy, clean) > 0

@@ -14,10 +14,12 @@ voxelizes them and runs this.
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import ndimage
 
 from skelfilter.core import edt_filters, surface_field, volume_fine_pass
 from skelfilter.core import spacing as voxel_spacing
-from skelfilter.core.decision import feature_restore, stage_pruning
+from skelfilter.core.decision import feature_restore, stage_pruning, two_sided
+from skelfilter.core.distance import distance_transform
 from skelfilter.core.neighbourhood import bounding_box
 from skelfilter.errors import InputError, ParameterError, ResourceError
 from skelfilter.parameter_fields import build, limits_of, with_parameter_entries
@@ -26,9 +28,12 @@ from skelfilter.runtime import worker_threads
 from skelfilter.runtime.memory import check_grid_fits
 from skelfilter.runtime.progress import Progress
 
-# Voxels of the input kept around the set's bounding box, with the foreground stage alone (the default):
-# more than the fine pass's widest Gaussian reaches (4 sigma); the rest of the grid is not looked at.
+# Voxels of the input kept around the set's bounding box where no background stage runs (the default):
+# more than the fine pass's widest Gaussian reaches (4 sigma) and half the two-sided decision's majority
+# window; the rest of the grid is not looked at.
 CROP_MARGIN = 12
+# Voxels around those the two-sided decision changed whose field is made again from the mask.
+_FIELD_BAND = 2
 # Voxels: the field given to a voxel the surface passes through exactly on the way back to the input's
 # thick slices, with the sign of the input's voxel.
 SURFACE_TIE = 1e-3
@@ -44,6 +49,7 @@ class DenoiseResult:
     timings: dict = field(default_factory=dict)
     voxels_changed: int = 0  # voxels added or removed: on the voxel grid of a mesh, on a volume's own
     route: object = None  # a mesh's skelfilter.mesh.route.Route: what ran and why
+    dents: object = None  # decision.two_sided.DentReading where ``stages`` auto read the input for dents
 
 
 def resolve_params(params=None, **overrides):
@@ -61,7 +67,7 @@ def denoise_padded(volume, params, progress, foreground=None):
     """
     result = DenoiseResult(mask=volume, field=None, timings=progress.timings)
     current = volume
-    if params.stages in ("both", "foreground"):
+    if params.stages in ("both", "foreground", "auto"):
         with progress.stage("foreground"):
             if foreground is None:
                 foreground = stage_pruning.stage_at_noise_scale(current, params, "bumps", progress)
@@ -72,6 +78,9 @@ def denoise_padded(volume, params, progress, foreground=None):
         result.stages["foreground"] = stage
         current = stage.mask
         field = stage.field
+    if params.stages == "auto":
+        with progress.stage("both sides"):
+            current, field, result.dents = _both_sides(volume, current, field, progress)
     if not current.any():
         raise InputError(
             f"nothing is left after pruning at threshold t = {params.threshold_voxels:g} voxels: "
@@ -120,6 +129,28 @@ def denoise_padded(volume, params, progress, foreground=None):
     result.mask = current
     result.field = field
     return result
+
+
+def _both_sides(volume, kept, field, progress):
+    """``stages`` auto after the foreground stage: where its result ``kept`` reads as pitted (the input
+    has dents), both sides decided by the input's majority reading (`two_sided`); the field follows
+    the voxels that changed. Returns (mask, field, `two_sided.DentReading`)."""
+    with progress.step("dents read"):
+        reading = two_sided.read_dents(kept)
+    if reading.found:
+        with progress.step("both sides decided"):
+            decided = two_sided.decide_both_sides(volume, kept)
+            changed = decided ^ kept
+            reading.changed = int(np.count_nonzero(changed))
+            if reading.changed:
+                box = bounding_box(ndimage.binary_dilation(changed, iterations=_FIELD_BAND))
+                inside = distance_transform(decided[box]) - surface_field.SURFACE_OFFSET
+                outside = surface_field.SURFACE_OFFSET - distance_transform(~decided[box])
+                band = ndimage.binary_dilation(changed[box], iterations=_FIELD_BAND)
+                field[box][band] = np.where(decided[box], inside, outside)[band]
+            kept = decided
+    progress.note(reading.describe())
+    return kept, field, reading
 
 
 def _fill_outside(volume, box, value):
@@ -215,8 +246,9 @@ def _denoise_volume(volume, params, progress, spacing, affine, overrides):
         spacing = VolumeParams(spacing=tuple(np.ravel(np.asarray(spacing, dtype=object)).tolist())).spacing
     resample = spacing is not None and not voxel_spacing.is_isotropic(spacing)
     # The background stage's set is bounded by the grid: its skeleton, and so its output, depend on the
-    # grid's extent; the foreground's do not.
-    box = _crop(volume, spacing if resample else None) if params.stages == "foreground" else None
+    # grid's extent; the foreground's do not, nor the two-sided decision's, which looks only within its
+    # window of the surface.
+    box = _crop(volume, spacing if resample else None) if params.stages in ("foreground", "auto") else None
     if box is not None and any(b.stop - b.start < n for b, n in zip(box, volume.shape)):
         # A label of a large segmentation: its voxels and their surroundings, not the whole scan.
         result = _denoise_volume(volume[box], params, progress, spacing, None, {})
@@ -340,7 +372,7 @@ def _foreground_first(volume, params, progress):
     """The foreground stage of `_denoise_cubic` on ``volume``, ahead of the rest: ``(padded volume,
     (stage, estimate))`` for `_denoise_cubic`'s ``foreground``; None where the stages do not start
     with it (background alone)."""
-    if params.stages not in ("both", "foreground"):
+    if params.stages == "background":
         return None
     params, pad = _cubic_params(volume, params)
     padded = np.pad(volume, pad)

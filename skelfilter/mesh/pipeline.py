@@ -182,7 +182,7 @@ def _voxel_stage(mesh, params, chosen, lattice, given, asked, progress):
     why = chosen.reason
     if output == "auto":
         output, why = _auto_output(params, result, chosen.roughness, progress)
-    result.route = chosen.settled(output=output, reason=why, noise=dict(result.noise))
+    result.route = chosen.settled(output=output, reason=why, noise=dict(result.noise), dents=result.dents)
     if output == "closed":
         kept = None
         if params.unchanged_surface == "input":

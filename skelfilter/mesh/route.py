@@ -199,6 +199,9 @@ class Route:
         noise each stage measured, where the voxel stage ran.
     fine_pass : bool
         Whether the fine pass smoothed the output's vertices (before voxelizing, for a closed output).
+    dents : DentReading or None
+        `skelfilter.core.decision.two_sided.DentReading`: whether the voxel stage read dents on the
+        input and decided both sides (``stages`` auto).
     """
 
     kind: str
@@ -207,6 +210,7 @@ class Route:
     roughness: Roughness | None = None
     noise: dict = field(default_factory=dict)
     fine_pass: bool = False
+    dents: object = None
 
     def settled(self, **changes):
         """This route with what the later steps found (`dataclasses.replace`)."""
@@ -225,8 +229,12 @@ class Route:
                          "correlation": self.roughness.correlation}
         noise = {side: {"found": bool(e.found), "height_voxels": float(e.height), "coverage": float(e.coverage)}
                  for side, e in self.noise.items()}
+        dents = None
+        if self.dents is not None:
+            dents = {"pitted_depth_voxels": self.dents.depth, "found": self.dents.found,
+                     "voxels_changed": self.dents.changed}
         return {"route": self.kind, "output": self.output, "reason": self.reason, "fine_pass": self.fine_pass,
-                "roughness": roughness, "noise": noise}
+                "roughness": roughness, "noise": noise, "dents": dents}
 
 
 def choose(mesh, params, lattice, asked, progress):

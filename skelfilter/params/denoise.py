@@ -19,8 +19,8 @@ class DenoiseParams:
         "default",
         "Preset",
         "the method's main choices for every field left unset: 'default' (measured best on the "
-        "quality benchmark: foreground stage only, t = 0.1875 of the longest side, i.e. 30 voxels at "
-        "resolution 160), 'thesis' (the thesis' pipeline as printed, §8.1.1-8.1.2: both stages, "
+        "quality benchmark: the foreground stage, and both sides decided where the input has dents, "
+        "t = 0.1875 of the longest side, i.e. 30 voxels at resolution 160), 'thesis' (the thesis' pipeline as printed, §8.1.1-8.1.2: both stages, "
         "t = 18 voxels, rho+ by eq. 5.6 over every neighbour) or 'thesis-tuned' (the same with rho+ "
         "taken from the neighbours ahead along v and no derivative below rho = 7 voxels, as the default)",
         choices=tuple(PRESETS),
@@ -207,10 +207,12 @@ class DenoiseParams:
     stages: str = _p(
         "preset",
         "Stages",
-        "which stages run: foreground removes bumps, background removes dents (§3.1.1); "
-        "'preset': the preset's (default: foreground; thesis: both)",
-        choices=("preset", "both", "foreground", "background"),
-        summary="remove bumps ('foreground', default), dents or both",
+        "which stages run: foreground removes bumps, background removes dents (§3.1.1); 'auto': the "
+        "foreground, then, where its result is pitted (the input has dents too), both sides decided ball "
+        "by ball against the input's majority reading on its thick parts; 'preset': the preset's "
+        "(default: auto; thesis: both)",
+        choices=("preset", "both", "foreground", "background", "auto"),
+        summary="remove bumps, and dents where found ('auto', default)",
     )
     unchanged_surface: str = _p(
         "preset",

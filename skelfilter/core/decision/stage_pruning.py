@@ -60,5 +60,7 @@ def stage_at_noise_scale(stage_set, params, side, progress):
 
 
 def passes_through(params, result):
-    """Whether the stages gave their input back: ``prune`` measured, and no stage found noise."""
-    return not params.prunes_as_told and not any(e.found for e in result.noise.values())
+    """Whether the stages gave their input back: ``prune`` measured, no stage found noise, and the
+    two-sided decision (`two_sided.decide_both_sides`) changed nothing."""
+    decided = result.dents is not None and result.dents.changed > 0
+    return not params.prunes_as_told and not decided and not any(e.found for e in result.noise.values())

@@ -1,0 +1,169 @@
+"""Two-sided noise: whether the input has dents as well as bumps, and where it has, both sides decided
+ball by ball against the input's majority reading on its thick parts.
+
+The foreground stage takes the bumps off and leaves the dents, widened by a halo: the pruning rounds
+off every dent's rim, a layer as deep as the dent around it, so on noise with dents the default's
+surface sinks and ends further from the clean shape than the input. The background stage run after it
+fills the dents, but wherever bumps survived it also fills the valleys between them (a mug's whole
+inside), and neither stage's noise estimate tells whether an input has dents at all.
+
+1. `read_dents`: whether the input has dents, read from the foreground's result K. K keeps the dents
+   (widened) and loses the bumps, so it is the input's concave side: closed by a ball of `DENT_CLOSING`
+   voxels, it fills its dents and, along their length only, the shape's real concavities. The fill
+   counted per voxel of K's surface (the *pitted depth*) is at least `PITTED_DEPTH` on inputs with
+   dents, under it on clean inputs and on bumps alone.
+2. `decide_both_sides`: where it is, each skeleton ball of the input, on both sides of the surface, is
+   decided by the input's majority reading (`majority_reading`: a voxel is in where most of the
+   `MAJORITY_WINDOW`-wide cube around it is; the median of the input's signed distance over that cube
+   has the same sign, so it is the modal surface, which a minority of bumps and dents on either side
+   does not move): a foreground ball centred outside the reading is a bump's, a background ball
+   centred inside it a dent's, and the voxels they own (`skelfilter.core.ball_owners`) change side.
+   A window takes thin parts as well as noise, so the decision holds only on the reading's thick parts
+   (`thick_parts`), and not at the feet of the thin parts that stand out of them; elsewhere K stays.
+
+Measured on the quality benchmark's shapes (docs/design/noise-estimate.md, "Both sides decided by the
+majority reading").
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from skelfilter.core import ball_owners
+from skelfilter.core.decision.feature_restore import ball_closing
+from skelfilter.core.distance import distance_transform
+
+# Voxels: the ball that closes the foreground's result. It fills the thesis' dents (about 2 voxels
+# across, as deep) with the halo around them; a concave edge or a mug's inside it fills along their
+# length only, a small share of the surface.
+DENT_CLOSING = 4.0
+# Voxels filled per voxel of the foreground result's surface from which the input has dents: inputs with
+# dents read 0.80 or more, without (clean shapes, bumps alone) 0.75 at most, on every benchmark shape at
+# 128 and 160 voxels.
+PITTED_DEPTH = 0.77
+# Voxels: the cube of the majority reading. Over it the bumps and dents, a minority of the surface, do
+# not move the majority; a wider one rounds off more of the shape's edges.
+MAJORITY_WINDOW = 15
+# Voxels around the reading's thick parts (those a ball of half the window fits in) where the decision holds.
+THICK_MARGIN = 2.0
+# Voxels: a part of the foreground's result standing further than this out of the thick parts is a thin
+# part (a leg, a fin, a rim), not a bump's top (the thesis' bumps stand 3 voxels), and the decision keeps
+# off its foot, within `FOOT_REACH` of it, so that it is not cut from the body.
+THIN_PART_HEIGHT = 4.0
+FOOT_REACH = THICK_MARGIN + 1.0
+
+
+@dataclass
+class DentReading:
+    """What `read_dents` read on the foreground's result, and what `decide_both_sides` changed.
+
+    Attributes
+    ----------
+    depth : float
+        Voxels the closing by `DENT_CLOSING` fills per voxel of the result's surface.
+    found : bool
+        ``depth >= PITTED_DEPTH``: the input has dents, both sides are decided.
+    changed : int
+        Voxels the two-sided decision changed (0 where it did not run).
+    """
+
+    depth: float
+    found: bool
+    changed: int = 0
+
+    def describe(self):
+        """One line a user can read."""
+        if not self.found:
+            return f"dents: none read (the result is pitted {self.depth:.2f} voxels deep, dents from {PITTED_DEPTH:g})"
+        return (f"dents: the result is pitted {self.depth:.2f} voxels deep: both sides decided by the input's "
+                f"majority reading, {self.changed} voxels changed")
+
+
+def read_dents(kept):
+    """Whether the input has dents, read from the foreground's result ``kept`` (see the module's
+    docstring): a `DentReading`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> box = np.zeros((40, 40, 40), bool); box[8:32, 8:32, 8:32] = True
+    >>> read_dents(box).found
+    False
+    >>> pitted = box.copy()
+    >>> for x in range(9, 31, 3):
+    ...     for y in range(9, 31, 3):
+    ...         pitted[x, y, 29:32] = False                 # dents 3 voxels deep all over the top
+    >>> read_dents(pitted).depth > read_dents(box).depth
+    True
+    """
+    filled = np.count_nonzero(ball_closing(kept, DENT_CLOSING) & ~kept)
+    surface = np.count_nonzero(kept & ~ndimage.binary_erosion(kept))
+    depth = filled / max(surface, 1)
+    return DentReading(depth=float(depth), found=bool(depth >= PITTED_DEPTH))
+
+
+def majority_reading(volume, window=MAJORITY_WINDOW):
+    """The voxels where more than half of the ``window``-wide cube around them is in ``volume`` (the
+    grid's outside counts as out): the sign of the median of the signed distance over the cube."""
+    return ndimage.uniform_filter(volume.astype(np.float32), window, mode="constant") > 0.5
+
+
+def thick_parts(reading, window=MAJORITY_WINDOW):
+    """The voxels within `THICK_MARGIN` of the balls of radius half the window that fit in ``reading``
+    (its opening by that ball, widened): where a window's reading is the shape's, not its thin parts
+    rounded off."""
+    radius = (window - 1) / 2
+    inner = distance_transform(reading) > radius
+    if not inner.any():
+        return inner
+    return distance_transform(~inner) <= radius + THICK_MARGIN
+
+
+def decide_both_sides(volume, kept, window=MAJORITY_WINDOW):
+    """The two-sided decision (see the module's docstring): ``kept`` where the majority reading of
+    ``volume`` is thin, else ``volume`` with the voxels of its bumps' and dents' balls changed side and
+    the seams smoothed (`ball_owners.seam_smoothed`).
+
+    Parameters
+    ----------
+    volume : bool ndarray
+        The stage's input; its set keeps at least ``window`` voxels from the grid's faces.
+    kept : bool ndarray
+        The foreground stage's result on it.
+    window : int, optional
+        Voxels: the majority reading's cube.
+
+    Returns
+    -------
+    bool ndarray
+    """
+    reading = majority_reading(volume, window)
+    thick = thick_parts(reading, window)
+    if thick.any():
+        thick &= ~_thin_part_feet(kept, thick)
+    if not thick.any():
+        return kept.copy()
+    # Only balls near the surface can be centred across the reading from their side; their voxels lie
+    # within a window of it.
+    owners = [ball_owners.ray_owners(side, reach=window)
+              for side in (volume, ball_owners.bounded_background(volume))]
+    flat = reading.reshape(-1)
+    decided = ball_owners.owned_output(volume, *owners, ~flat[owners[0][2]], flat[owners[1][2]])
+    decided = ball_owners.seam_smoothed(volume, decided)
+    return np.where(thick, decided, kept)
+
+
+def _thin_part_feet(kept, thick):
+    """The voxels within `FOOT_REACH` of the parts of ``kept`` that stand further than `THIN_PART_HEIGHT`
+    out of ``thick``: where the thin parts join the body."""
+    beyond = kept & ~thick
+    if not beyond.any():
+        return beyond
+    labels, count = ndimage.label(beyond, structure=np.ones((3, 3, 3), bool))
+    height = distance_transform(~thick)
+    tallest = ndimage.maximum(height, labels, index=np.arange(1, count + 1))
+    tall = np.concatenate(([False], np.asarray(tallest) > THIN_PART_HEIGHT))[labels]
+    if not tall.any():
+        return tall
+    return distance_transform(~tall) <= FOOT_REACH
