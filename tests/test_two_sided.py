@@ -81,7 +81,8 @@ def test_the_default_takes_dents_where_the_foreground_alone_leaves_them(pitted_c
         return (side & (result.mask if side is noise.bumps else ~result.mask)).sum() / side.sum()
 
     assert left(one_sided, noise.dents) == 1.0 and left(default, noise.dents) < 0.45
-    assert left(default, noise.bumps) < left(one_sided, noise.bumps)
+    assert left(default, noise.bumps) <= left(one_sided, noise.bumps) + 0.02  # nothing it kept is taken
+    assert not (one_sided.mask & ~default.mask).any()
     error = [(r.mask ^ clean).sum() / (noise.noisy ^ clean).sum() for r in (one_sided, default)]
     assert error[1] < 0.6 < error[0]
     # the field agrees with the mask it was made again for

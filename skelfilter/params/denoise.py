@@ -20,9 +20,10 @@ class DenoiseParams:
         "Preset",
         "the method's main choices for every field left unset: 'default' (measured best on the "
         "quality benchmark: the foreground stage, and both sides decided where the input has dents, "
-        "t = 0.1875 of the longest side, i.e. 30 voxels at resolution 160), 'thesis' (the thesis' pipeline as printed, §8.1.1-8.1.2: both stages, "
-        "t = 18 voxels, rho+ by eq. 5.6 over every neighbour) or 'thesis-tuned' (the same with rho+ "
-        "taken from the neighbours ahead along v and no derivative below rho = 7 voxels, as the default)",
+        "t = 0.1875 of the longest side, i.e. 30 voxels at resolution 160), 'thesis' (the thesis' "
+        "pipeline as printed, §8.1.1-8.1.2: both stages, t = 18 voxels, rho+ by eq. 5.6 over every "
+        "neighbour) or 'thesis-tuned' (the same with rho+ taken from the neighbours ahead along v and no "
+        "derivative below rho = 7 voxels, as the default)",
         choices=tuple(PRESETS),
         summary=("the method's main choices: 'default', or the thesis' pipeline as printed ('thesis') or "
                  "tuned ('thesis-tuned')"),

@@ -18,8 +18,12 @@ inside), and neither stage's noise estimate tells whether an input has dents at 
    has the same sign, so it is the modal surface, which a minority of bumps and dents on either side
    does not move): a foreground ball centred outside the reading is a bump's, a background ball
    centred inside it a dent's, and the voxels they own (`skelfilter.core.ball_owners`) change side.
-   A window takes thin parts as well as noise, so the decision holds only on the reading's thick parts
-   (`thick_parts`), and not at the feet of the thin parts that stand out of them; elsewhere K stays.
+   What that decision adds to K is added: the dents filled, and the halos the pruning took around
+   them given back; nothing K keeps is taken (its features, edges and thin parts stay as the foreground
+   stage left them, and the bumps it removed stay removed). A window rounds off thin parts and narrow
+   concavities as well as noise, so the decision holds only near the thick parts of both sides of the
+   reading, and not at the feet of the thin parts or the mouths of the slots that stand out of them
+   (`trusted_parts`).
 
 Measured on the quality benchmark's shapes (docs/design/noise-estimate.md, "Both sides decided by the
 majority reading").
@@ -46,7 +50,7 @@ PITTED_DEPTH = 0.77
 # not move the majority; a wider one rounds off more of the shape's edges.
 MAJORITY_WINDOW = 15
 # Voxels around the reading's thick parts (those a ball of half the window fits in) where the decision holds.
-THICK_MARGIN = 2.0
+THICK_MARGIN = 4.0
 # Voxels: a part of the foreground's result standing further than this out of the thick parts is a thin
 # part (a leg, a fin, a rim), not a bump's top (the thesis' bumps stand 3 voxels), and the decision keeps
 # off its foot, within `FOOT_REACH` of it, so that it is not cut from the body.
@@ -121,9 +125,10 @@ def thick_parts(reading, window=MAJORITY_WINDOW):
 
 
 def decide_both_sides(volume, kept, window=MAJORITY_WINDOW):
-    """The two-sided decision (see the module's docstring): ``kept`` where the majority reading of
-    ``volume`` is thin, else ``volume`` with the voxels of its bumps' and dents' balls changed side and
-    the seams smoothed (`ball_owners.seam_smoothed`).
+    """The two-sided decision (see the module's docstring): ``kept`` with what the per-ball decision
+    against the majority reading of ``volume`` (its bumps' and dents' balls' voxels changed side, the
+    seams smoothed: `ball_owners.seam_smoothed`) adds to it where the reading is trusted
+    (`trusted_parts`).
 
     Parameters
     ----------
@@ -139,9 +144,7 @@ def decide_both_sides(volume, kept, window=MAJORITY_WINDOW):
     bool ndarray
     """
     reading = majority_reading(volume, window)
-    thick = thick_parts(reading, window)
-    if thick.any():
-        thick &= ~_thin_part_feet(kept, thick)
+    thick = trusted_parts(reading, volume, kept, window)
     if not thick.any():
         return kept.copy()
     # Only balls near the surface can be centred across the reading from their side; their voxels lie
@@ -151,7 +154,24 @@ def decide_both_sides(volume, kept, window=MAJORITY_WINDOW):
     flat = reading.reshape(-1)
     decided = ball_owners.owned_output(volume, *owners, ~flat[owners[0][2]], flat[owners[1][2]])
     decided = ball_owners.seam_smoothed(volume, decided)
-    return np.where(thick, decided, kept)
+    return kept | (decided & thick)
+
+
+def trusted_parts(reading, volume, kept, window=MAJORITY_WINDOW):
+    """Where the majority reading decides: near the thick parts of both sides of it (`thick_parts` of the
+    reading and of its complement), so that neither a thin part nor a narrow concavity (a slot, the gap
+    between a gear's teeth) is rounded off, and not within `FOOT_REACH` of where a part of ``kept`` stands
+    further than `THIN_PART_HEIGHT` out of the first (a leg's foot) or a part of the complement of
+    ``volume`` out of the second (a slot's mouth). The complement of ``kept`` would not do: its dents,
+    widened by the halos, stand that far."""
+    trusted = None
+    for side, result in ((reading, kept), (~reading, ~volume)):
+        thick = thick_parts(side, window)
+        if not thick.any():
+            return thick
+        thick &= ~_thin_part_feet(result, thick)
+        trusted = thick if trusted is None else trusted & thick
+    return trusted
 
 
 def _thin_part_feet(kept, thick):
