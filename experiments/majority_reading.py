@@ -14,8 +14,8 @@ the mean distance between the two masks' boundary voxels, both ways):
 - ``proxy <w>``: the per-ball decision with the majority reading over a ``w``-wide cube in place of the
   clean shape (`two_sided.majority_reading`, `ball_owners.owned_output`, seams smoothed): every
   foreground ball centred outside it and every background ball centred inside it change their voxels;
-- ``thick <w>``: the same on the reading's thick parts only (`two_sided.thick_parts`), the foreground's
-  result elsewhere;
+- ``thick <w>``: the same on the reading's thick parts only (`two_sided.thick_parts` with a margin of 2
+  voxels), in place of the foreground's result there, the foreground's result elsewhere;
 - ``auto``: the default now (``stages`` auto: the dents read, the thick parts without the thin parts'
   feet).
 """
@@ -58,7 +58,7 @@ def variants(noisy, resolution, windows):
     for window in windows:
         decided, reading = proxy(noisy, window)
         yield f"proxy {window}", decided
-        yield f"thick {window}", np.where(two_sided.thick_parts(reading, window), decided, foreground)
+        yield f"thick {window}", np.where(two_sided.thick_parts(reading, window, margin=2.0), decided, foreground)
     yield "auto", pipeline.denoise_volume(noisy, params).mask
 
 

@@ -113,15 +113,15 @@ def majority_reading(volume, window=MAJORITY_WINDOW):
     return ndimage.uniform_filter(volume.astype(np.float32), window, mode="constant") > 0.5
 
 
-def thick_parts(reading, window=MAJORITY_WINDOW):
-    """The voxels within `THICK_MARGIN` of the balls of radius half the window that fit in ``reading``
+def thick_parts(reading, window=MAJORITY_WINDOW, margin=THICK_MARGIN):
+    """The voxels within ``margin`` voxels of the balls of radius half the window that fit in ``reading``
     (its opening by that ball, widened): where a window's reading is the shape's, not its thin parts
     rounded off."""
     radius = (window - 1) / 2
     inner = distance_transform(reading) > radius
     if not inner.any():
         return inner
-    return distance_transform(~inner) <= radius + THICK_MARGIN
+    return distance_transform(~inner) <= radius + margin
 
 
 def decide_both_sides(volume, kept, window=MAJORITY_WINDOW):
