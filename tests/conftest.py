@@ -57,3 +57,13 @@ def meshlab_fault(monkeypatch):
         harness.meshlab_child_fault(action, monkeypatch.setattr)
 
     return inject
+
+
+def cube_with_a_bump_and_a_dent():
+    """(clean, noisy): a 24-voxel cube in a 40³ grid, with a bump 3 voxels high and a dent 3 deep on its top."""
+    clean = np.zeros((40, 40, 40), dtype=bool)
+    clean[8:32, 8:32, 8:32] = True
+    noisy = clean.copy()
+    noisy[14:18, 14:18, 32:35] = True
+    noisy[22:26, 22:26, 29:32] = False
+    return clean, noisy

@@ -2,23 +2,15 @@
 voxels (`owned_output`) and its seams smoothed (`seam_smoothed`)."""
 
 import numpy as np
+from conftest import cube_with_a_bump_and_a_dent
 from scipy import ndimage
 
 from skelfilter.core import ball_owners
 from skelfilter.evaluation import metrics
 
 
-def _cube_with_a_bump_and_a_dent():
-    clean = np.zeros((40, 40, 40), dtype=bool)
-    clean[8:32, 8:32, 8:32] = True
-    noisy = clean.copy()
-    noisy[14:18, 14:18, 32:35] = True  # a bump 3 voxels high on the top face
-    noisy[22:26, 22:26, 29:32] = False  # a dent 3 voxels deep in it
-    return clean, noisy
-
-
 def test_each_voxel_is_owned_by_the_ball_tangent_at_its_nearest_boundary_point():
-    _, noisy = _cube_with_a_bump_and_a_dent()
+    _, noisy = cube_with_a_bump_and_a_dent()
     voxels, owner, centres, radii = ball_owners.ray_owners(noisy)
     assert np.array_equal(voxels, np.flatnonzero(noisy))
     assert (owner >= 0).mean() > 0.99  # nearly every voxel has its ball
@@ -33,7 +25,7 @@ def test_each_voxel_is_owned_by_the_ball_tangent_at_its_nearest_boundary_point()
 
 
 def test_the_reach_keeps_the_voxels_near_the_boundary_with_the_same_owners():
-    _, noisy = _cube_with_a_bump_and_a_dent()
+    _, noisy = cube_with_a_bump_and_a_dent()
     all_voxels, all_owners, _, _ = ball_owners.ray_owners(noisy)
     voxels, owners, _, _ = ball_owners.ray_owners(noisy, reach=3)
     distance = ndimage.distance_transform_edt(noisy).reshape(-1)
@@ -42,7 +34,7 @@ def test_the_reach_keeps_the_voxels_near_the_boundary_with_the_same_owners():
 
 
 def test_dropped_balls_take_their_voxels_along_on_either_side():
-    clean, noisy = _cube_with_a_bump_and_a_dent()
+    clean, noisy = cube_with_a_bump_and_a_dent()
     fg, bg = ball_owners.ray_owners(noisy), ball_owners.ray_owners(ball_owners.bounded_background(noisy))
     clean_fg = ndimage.distance_transform_edt(clean).reshape(-1)
     clean_bg = ndimage.distance_transform_edt(ball_owners.bounded_background(clean)).reshape(-1)

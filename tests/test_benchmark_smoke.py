@@ -8,6 +8,7 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import cube_with_a_bump_and_a_dent
 
 from benchmarks import oracle
 
@@ -108,17 +109,8 @@ def test_thesis_tables_print_both_columns(tmp_path, table, thesis_figure):
     assert 0 <= ours <= 1 and thesis == thesis_figure  # ours beside the thesis' printed figure
 
 
-def _cube_with_a_bump_and_a_dent():
-    clean = np.zeros((40, 40, 40), dtype=bool)
-    clean[8:32, 8:32, 8:32] = True
-    noisy = clean.copy()
-    noisy[14:18, 14:18, 32:35] = True  # a bump 3 voxels high on the top face
-    noisy[22:26, 22:26, 29:32] = False  # a dent 3 voxels deep in it
-    return clean, noisy
-
-
 def test_the_ball_oracle_removes_a_bump_and_fills_a_dent():
-    clean, noisy = _cube_with_a_bump_and_a_dent()
+    clean, noisy = cube_with_a_bump_and_a_dent()
     out, (centres, radii, clean_radii, noise) = oracle.oracle(noisy, clean)
     assert not (out & ~clean)[14:18, 14:18, 32:35].any()
     assert out[22:26, 22:26, 29:32].all()
@@ -128,7 +120,7 @@ def test_the_ball_oracle_removes_a_bump_and_fills_a_dent():
 
 
 def test_the_owned_oracle_removes_a_bump_and_fills_a_dent_without_gaps():
-    clean, noisy = _cube_with_a_bump_and_a_dent()
+    clean, noisy = cube_with_a_bump_and_a_dent()
     out = oracle.owned_oracle(noisy, clean)
     assert not out[15:17, 15:17, 33:35].any() and out[23:25, 23:25, 29:32].all()
     # no coverage gaps: what stays wrong is one voxel at the rims (of the 96 the noise changed)

@@ -97,3 +97,13 @@ def test_bumps_alone_and_a_clean_shape_are_not_read_as_dented():
     assert not default.dents.found and np.array_equal(default.mask, one_sided.mask)
     passed = denoise_volume(clean)
     assert not passed.dents.found and np.array_equal(passed.mask, clean)
+
+
+def test_the_reading_of_nothing_left_is_no_dents_and_the_box_gives_the_grid_s_counts():
+    assert not two_sided.read_dents(np.zeros((20, 20, 20), bool)).found
+    box = _box()
+    pitted = box.copy()
+    pitted[20:22, 20:22, 37:40] = False
+    grid = np.zeros((80, 70, 60), bool)
+    grid[10:58, 5:53, 3:51] = pitted
+    assert two_sided.read_dents(grid).depth == pytest.approx(two_sided.read_dents(pitted).depth)

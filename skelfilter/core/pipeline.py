@@ -78,14 +78,14 @@ def denoise_padded(volume, params, progress, foreground=None):
         result.stages["foreground"] = stage
         current = stage.mask
         field = stage.field
-    if params.stages == "auto":
-        with progress.stage("both sides"):
-            current, field, result.dents = _both_sides(volume, current, field, progress)
     if not current.any():
         raise InputError(
             f"nothing is left after pruning at threshold t = {params.threshold_voxels:g} voxels: "
             "the whole shape is thinner than the noise scale; lower `threshold` or raise `resolution`"
         )
+    if params.stages == "auto":
+        with progress.stage("both sides"):
+            current, field, result.dents = _both_sides(volume, current, field, progress)
     if params.stages in ("both", "background"):
         field = None
         if "foreground" in result.stages:

@@ -37,6 +37,7 @@ from scipy import ndimage
 from skelfilter.core import ball_owners
 from skelfilter.core.decision.feature_restore import ball_closing
 from skelfilter.core.distance import distance_transform
+from skelfilter.core.neighbourhood import bounding_box
 
 # Voxels: the ball that closes the foreground's result. It fills the thesis' dents (about 2 voxels
 # across, as deep) with the halo around them; a concave edge or a mug's inside it fills along their
@@ -101,9 +102,15 @@ def read_dents(kept):
     >>> read_dents(pitted).depth > read_dents(box).depth
     True
     """
+    box = bounding_box(kept)
+    if box is None:
+        return DentReading(depth=0.0, found=False)
+    # The grid's outside counts as the complement for the closing and the erosion alike, so the box of
+    # the set gives the same counts as the whole grid.
+    kept = kept[box]
     filled = np.count_nonzero(ball_closing(kept, DENT_CLOSING) & ~kept)
     surface = np.count_nonzero(kept & ~ndimage.binary_erosion(kept))
-    depth = filled / max(surface, 1)
+    depth = filled / surface
     return DentReading(depth=float(depth), found=bool(depth >= PITTED_DEPTH))
 
 
