@@ -143,7 +143,7 @@ def _both_sides(volume, kept, field, progress):
             changed = decided ^ kept
             reading.changed = int(np.count_nonzero(changed))
             if reading.changed:
-                box = bounding_box(ndimage.binary_dilation(changed, iterations=_FIELD_BAND))
+                box = bounding_box(changed, margin=_FIELD_BAND)
                 inside = distance_transform(decided[box]) - surface_field.SURFACE_OFFSET
                 outside = surface_field.SURFACE_OFFSET - distance_transform(~decided[box])
                 band = ndimage.binary_dilation(changed[box], iterations=_FIELD_BAND)
