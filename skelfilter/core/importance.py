@@ -19,7 +19,7 @@ from scipy import ndimage
 
 from skelfilter.core.geodesic_landmarks import landmark_distances
 from skelfilter.core.geodesic_search import STEP, astar, hops_for
-from skelfilter.core.neighbourhood import OFFSETS_26, flat_offsets, ravel, unravel
+from skelfilter.core.neighbourhood import OFFSETS_26, dilated_by_cube, flat_offsets, ravel, unravel
 from skelfilter.errors import ParameterError
 from skelfilter.runtime.compiled import njit
 
@@ -47,25 +47,8 @@ def boundary_layer(volume):
     .. [1] H. R. Schubert, "Salient edge preserving noise removal using surface skeletons", master
            thesis, University of Groningen, 2016, §7.2, eq. 7.12.
     """
-    x = np.ascontiguousarray(volume, dtype=bool)
-    boundary = np.empty_like(x)
-    _boundary_layer(x, boundary)
-    return boundary
-
-
-@njit(parallel=True)
-def _boundary_layer(x, out):
-    nx, ny, nz = x.shape
-    for i in prange(nx):
-        for j in range(ny):
-            for k in range(nz):
-                hit = False
-                if not x[i, j, k]:
-                    for a in range(max(i - 1, 0), min(i + 2, nx)):
-                        for b in range(max(j - 1, 0), min(j + 2, ny)):
-                            for c in range(max(k - 1, 0), min(k + 2, nz)):
-                                hit |= x[a, b, c]
-                out[i, j, k] = hit
+    x = np.asarray(volume, dtype=bool)
+    return dilated_by_cube(x) & ~x
 
 
 def euclidean_importance(shape, a, b):

@@ -13,6 +13,7 @@ from skelfilter.errors import InputError, OpenSurfaceError, ParameterError, Reso
 from skelfilter.io.mesh_files import validate_mesh
 from skelfilter.mesh import fine_pass, marching_cubes, route, vertex_projection, voxelize
 from skelfilter.mesh.frame import Frame
+from skelfilter.mesh.welding import weld
 from skelfilter.parameter_fields import build, with_parameter_entries
 from skelfilter.params import DenoiseParams, NoiseParams, voxel_fields_given
 from skelfilter.runtime import worker_threads
@@ -286,8 +287,7 @@ def _kept_vertices(mesh, voxels, params, grid, progress, roughness=None):
     `_noisy` (``roughness``: its `route.Roughness`, or None for a voxel mesh).
     """
     # Vertices split along UV seams or by the file format move as one.
-    welded, inverse = np.unique(np.asarray(mesh.vertices, dtype=np.float64), axis=0, return_inverse=True)
-    inverse = inverse.reshape(-1)
+    welded, inverse = weld(mesh.vertices)
     faces = inverse[np.asarray(mesh.faces, dtype=np.int64)]
     vertices, moved = welded, np.zeros(len(welded), dtype=bool)
     if voxels is not None:

@@ -18,6 +18,7 @@ import numpy as np
 from numba import prange
 
 from skelfilter.core.neighbourhood import OFFSETS_6
+from skelfilter.mesh.welding import weld
 from skelfilter.runtime.compiled import njit
 
 # Voxel centres are sampled at this tiny irrational offset (in voxels), the
@@ -38,7 +39,7 @@ def is_consistently_oriented(vertices, faces):
 
     Such a mesh has a winding number everywhere, which voxelizes overlapping parts as their union.
     """
-    _, index = np.unique(vertices, axis=0, return_inverse=True)
+    _, index = weld(vertices)
     f = index.reshape(-1)[faces]
     f = f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 2] != f[:, 0])]
     if len(f) == 0:

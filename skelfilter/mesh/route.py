@@ -51,9 +51,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from skelfilter.core.decision.noise_estimate import surface_voxels
+from skelfilter.core.neighbourhood import surface_voxels
 from skelfilter.mesh import normal_filtering, surface_roughness
 from skelfilter.mesh.closest_points import within
+from skelfilter.mesh.welding import weld
 
 # Voxels of the input's voxel surface that must lie within `NEAR` voxels of the input mesh for the
 # input to count as a solid.
@@ -138,7 +139,7 @@ def measure(mesh):
     if coarse >= SKELETON_ROUGHNESS:
         return Roughness(fine, coarse)
     # on the vertices as they meet (an STL file stores every triangle's corners apart)
-    welded, inverse = np.unique(np.asarray(mesh.vertices, dtype=np.float64), axis=0, return_inverse=True)
+    welded, inverse = weld(mesh.vertices)
     faces = inverse.reshape(-1)[np.asarray(mesh.faces, dtype=np.int64)]
     return Roughness(fine, coarse, normal_filtering.noise_correlation(welded, faces))
 

@@ -13,7 +13,7 @@ faces still point against the surface or have lost their area.
 import numpy as np
 from scipy import ndimage
 
-from skelfilter.core.neighbourhood import bounding_box
+from skelfilter.core.neighbourhood import bounding_box, surface_voxels
 from skelfilter.mesh.normal_filtering import face_edges, vertex_adjacency
 from skelfilter.runtime.signals import checkpoint
 
@@ -220,7 +220,7 @@ def move_input_vertices(vertices, faces, mask, occupancy, field, input_field, gr
     noise = protruding(occupancy & ~mask, mask) | protruding(mask & ~occupancy, ~mask)
     changed = ndimage.binary_dilation(noise, iterations=reach)
     del noise
-    rim = occupancy & ~ndimage.binary_erosion(occupancy)
+    rim = surface_voxels(occupancy)
     on_surface = ndimage.binary_dilation(rim, iterations=reach)
     where = tuple(voxel.T)
     candidate = changed[where] & on_surface[where] & ~boundary_vertices(faces, n)

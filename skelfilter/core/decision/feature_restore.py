@@ -15,7 +15,7 @@ from skelfilter.core.decision import noise_estimate
 from skelfilter.core.decision.noise_estimate import height_above
 from skelfilter.core.distance import distance_transform
 from skelfilter.core.line_opening import line_opening
-from skelfilter.core.neighbourhood import OFFSETS_26, bounding_box, flat_offsets, push
+from skelfilter.core.neighbourhood import OFFSETS_26, bounding_box, dilated_by_cube, flat_offsets, push
 from skelfilter.runtime.compiled import njit
 
 CUBE = np.ones((3, 3, 3), dtype=bool)
@@ -189,8 +189,8 @@ def connections(stage_set, result, width, most=8):
         neck = gone & (total <= gap + 2 * max(gap, width))
         # The part of the neck that touches both pieces.
         labels, _ = ndimage.label(neck, structure=CUBE)
-        near_a = ndimage.binary_dilation(kept == a, structure=CUBE)
-        near_b = ndimage.binary_dilation(kept == b, structure=CUBE)
+        near_a = dilated_by_cube(kept == a)
+        near_b = dilated_by_cube(kept == b)
         both = np.intersect1d(labels[near_a & neck], labels[near_b & neck])
         bridges |= np.isin(labels, both[both > 0])
     out[box] = bridges
@@ -279,5 +279,5 @@ def _restore(mask, field, restored):
         return
     mask |= restored
     np.maximum(field, 0.5, out=field, where=restored)
-    rim = ndimage.binary_dilation(restored[box], structure=CUBE) & ~mask[box]
+    rim = dilated_by_cube(restored[box]) & ~mask[box]
     np.maximum(field[box], -0.5, out=field[box], where=rim)

@@ -25,7 +25,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numba import prange
-from scipy import ndimage
 
 from skelfilter.core.distance import distance_transform
 from skelfilter.core.neighbourhood import bounding_box
@@ -94,14 +93,9 @@ def height_above(part, base, reach):
     return box, height
 
 
-def surface_voxels(volume):
-    """The set voxels with an unset 6-neighbour."""
-    return volume & ~ndimage.binary_erosion(volume)
-
-
 def surface_cells(volume, cell):
     """Number of cells (cubes of side ``cell`` voxels from the grid's corner) holding a voxel of
-    `surface_voxels` of ``volume``.
+    `neighbourhood.surface_voxels` of ``volume``.
 
     Examples
     --------

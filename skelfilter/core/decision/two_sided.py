@@ -37,7 +37,7 @@ from scipy import ndimage
 from skelfilter.core import ball_owners
 from skelfilter.core.decision.feature_restore import ball_closing
 from skelfilter.core.distance import distance_transform
-from skelfilter.core.neighbourhood import bounding_box
+from skelfilter.core.neighbourhood import bounding_box, surface_voxels
 
 # Voxels: the ball that closes the foreground's result. It fills the thesis' dents (about 2 voxels
 # across, as deep) with the halo around them; a concave edge or a mug's inside it fills along their
@@ -109,7 +109,7 @@ def read_dents(kept):
     # the set gives the same counts as the whole grid.
     kept = kept[box]
     filled = np.count_nonzero(ball_closing(kept, DENT_CLOSING) & ~kept)
-    surface = np.count_nonzero(kept & ~ndimage.binary_erosion(kept))
+    surface = np.count_nonzero(surface_voxels(kept))
     depth = filled / surface
     return DentReading(depth=float(depth), found=bool(depth >= PITTED_DEPTH))
 
