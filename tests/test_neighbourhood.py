@@ -6,7 +6,7 @@ import pytest
 import trimesh
 from scipy import ndimage
 
-from skelfilter.core.neighbourhood import dilated_by_cube, surface_voxels
+from skelfilter.core.neighbourhood import dilated_by_cross, dilated_by_cube, surface_voxels
 from skelfilter.mesh.marching_cubes import _signed_volume
 from skelfilter.mesh.welding import weld
 
@@ -49,3 +49,11 @@ def test_signed_volume_is_trimeshs_volume():
     mesh.invert()
     assert mesh.volume < 0
     assert _signed_volume(mesh.vertices, mesh.faces) == pytest.approx(mesh.volume, rel=1e-12)
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+@pytest.mark.parametrize("iterations", [1, 2, 3])
+def test_dilated_by_cross_is_scipys_iterated_dilation(shape, iterations):
+    volume = np.random.default_rng(int(np.prod(shape)) + iterations).random(shape) < 0.05
+    expected = ndimage.binary_dilation(volume, iterations=iterations)
+    assert np.array_equal(dilated_by_cross(volume, iterations), expected)

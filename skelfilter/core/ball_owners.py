@@ -16,6 +16,7 @@ from scipy import ndimage
 
 from skelfilter.core import skeleton
 from skelfilter.core.distance import distance_and_features
+from skelfilter.core.neighbourhood import dilated_by_cross
 from skelfilter.runtime.compiled import njit
 
 RAY_TOLERANCE = 1.0  # voxels: how far past the nearest boundary point's ball a ray may go (`ray_owners`)
@@ -119,7 +120,7 @@ def seam_smoothed(volume, out, sigma=SEAM_SIGMA, grow=SEAM_GROW):
     """``out`` where the voxels it changed from ``volume``, grown by ``grow``, take the value of ``out``
     smoothed by a Gaussian of ``sigma`` voxels (at least 1/2 is inside); every other voxel as ``out``
     has it (so a shape ``out`` leaves unchanged stays unchanged)."""
-    seam = ndimage.binary_dilation(volume ^ out, iterations=grow)
+    seam = dilated_by_cross(volume ^ out, grow)
     smooth = ndimage.gaussian_filter(out.astype(np.float32), sigma) >= 0.5
     result = out.copy()
     result[seam] = smooth[seam]

@@ -14,13 +14,12 @@ voxelizes them and runs this.
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import ndimage
 
 from skelfilter.core import edt_filters, surface_field, volume_fine_pass
 from skelfilter.core import spacing as voxel_spacing
 from skelfilter.core.decision import feature_restore, stage_pruning, two_sided
 from skelfilter.core.distance import distance_transform
-from skelfilter.core.neighbourhood import bounding_box
+from skelfilter.core.neighbourhood import bounding_box, dilated_by_cross
 from skelfilter.errors import InputError, ParameterError, ResourceError
 from skelfilter.parameter_fields import build, limits_of, with_parameter_entries
 from skelfilter.params import DenoiseParams, VolumeParams
@@ -146,7 +145,7 @@ def _both_sides(volume, kept, field, progress):
                 box = bounding_box(changed, margin=_FIELD_BAND)
                 inside = distance_transform(decided[box]) - surface_field.SURFACE_OFFSET
                 outside = surface_field.SURFACE_OFFSET - distance_transform(~decided[box])
-                band = ndimage.binary_dilation(changed[box], iterations=_FIELD_BAND)
+                band = dilated_by_cross(changed[box], _FIELD_BAND)
                 field[box][band] = np.where(decided[box], inside, outside)[band]
             kept = decided
     progress.note(reading.describe())

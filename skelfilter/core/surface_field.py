@@ -10,6 +10,7 @@ from scipy.spatial import cKDTree
 from skelfilter.core import reconstruct
 from skelfilter.core.distance import gradient_at
 from skelfilter.core.gaussian_filter import gaussian_filter
+from skelfilter.core.neighbourhood import dilated_by_cross
 from skelfilter.runtime.compiled import njit
 
 # Balls of radius D touch the centres of the nearest outside voxels; the
@@ -122,7 +123,7 @@ def signed_distance_at(mask, indices):
 def _nearest_by_tree(own, indices):
     """Distance from each voxel of the flat ``indices`` (set in ``own``) to its nearest voxel not
     in ``own``, exactly as the whole-grid transform gives it (the square root of an integer)."""
-    other = ndimage.binary_dilation(own) & ~own
+    other = dilated_by_cross(own) & ~own
     if not other.any():  # no other side on the grid: whatever the transform makes of that
         return ndimage.distance_transform_edt(own).reshape(-1)[indices]
     targets = np.argwhere(other)

@@ -25,12 +25,11 @@ deviation 0.6 and 1 voxel at resolution 128); see ``docs/design/noise-estimate.m
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 
 from skelfilter.core import edt_filters
 from skelfilter.core.decision import feature_restore
 from skelfilter.core.gaussian_filter import gaussian_filter  # scipy's (mode reflect), over the cores
-from skelfilter.core.neighbourhood import bounding_box
+from skelfilter.core.neighbourhood import bounding_box, dilated_by_cross, surface_voxels
 
 LEVELS = (2.0, 1.5, 1.0, 0.6)  # voxels: the Gaussians' sigmas, widest first
 MEASURE_SIGMA = 0.8  # voxels: the light smoothing the noise is measured against
@@ -157,7 +156,7 @@ def _disagreement(mask, light):
 
 def _boundary(mask):
     """The voxels on either side of the mask's surface (6-neighbours across it)."""
-    return (mask & ~ndimage.binary_erosion(mask)) | (ndimage.binary_dilation(mask) & ~mask)
+    return surface_voxels(mask) | (dilated_by_cross(mask) & ~mask)
 
 
 def voxel_roughness(mask, sampled=False):
@@ -241,7 +240,7 @@ def fine_pass(mask, sampled=None):
         smooth = smoothing(inner, sigma)
         features = _features(inner, smooth, noise.height)
         if features.any():
-            features = ndimage.binary_dilation(features, iterations=GROW)
+            features = dilated_by_cross(features, GROW)
         decide = undecided & ~features
         result[decide] = smooth[decide]
         undecided &= features

@@ -13,7 +13,7 @@ faces still point against the surface or have lost their area.
 import numpy as np
 from scipy import ndimage
 
-from skelfilter.core.neighbourhood import bounding_box, surface_voxels
+from skelfilter.core.neighbourhood import bounding_box, dilated_by_cross, surface_voxels
 from skelfilter.mesh.normal_filtering import face_edges, vertex_adjacency
 from skelfilter.runtime.signals import checkpoint
 
@@ -218,10 +218,10 @@ def move_input_vertices(vertices, faces, mask, occupancy, field, input_field, gr
     points = grid.to_index(vertices)
     voxel = np.clip(np.rint(points).astype(np.int64), 0, np.array(mask.shape) - 1)
     noise = protruding(occupancy & ~mask, mask) | protruding(mask & ~occupancy, ~mask)
-    changed = ndimage.binary_dilation(noise, iterations=reach)
+    changed = dilated_by_cross(noise, reach)
     del noise
     rim = surface_voxels(occupancy)
-    on_surface = ndimage.binary_dilation(rim, iterations=reach)
+    on_surface = dilated_by_cross(rim, reach)
     where = tuple(voxel.T)
     candidate = changed[where] & on_surface[where] & ~boundary_vertices(faces, n)
     moved = np.zeros(n, dtype=bool)
