@@ -110,3 +110,18 @@ def test_the_majority_proxy_takes_a_bump_and_a_dent_and_the_chamfer_is_zero_on_i
     assert not decided[18:21, 18:21, 41:43].any() and decided[28:31, 28:31, 37:39].all()
     assert majority_reading.surface_chamfer(clean, clean) == 0
     assert majority_reading.surface_chamfer(noisy, clean) > 0
+
+
+def test_the_never_worse_guard_keeps_what_agrees_with_its_reference_and_gives_back_the_rest():
+    from experiments import never_worse
+    clean = np.zeros((40, 40, 40), bool)
+    clean[8:32, 8:32, 8:32] = True
+    noisy = clean.copy()
+    noisy[14:17, 14:17, 32:35] = True  # a bump
+    out = clean.copy()
+    out[22:28, 22:28, 29:32] = False  # a halo the default dug where the input was right
+    labels = never_worse.pieces(out ^ noisy, 0)
+    guarded, keep, size = never_worse.guarded(noisy, out, labels, clean)
+    assert not guarded[14:17, 14:17, 32:35].any() and guarded[22:28, 22:28, 29:32].all()
+    assert size.sum() == np.count_nonzero(out ^ noisy) and keep.sum() == 2  # the unchanged voxels and the bump
+    assert never_worse.pieces(out ^ noisy, 4).max() > labels.max()  # cut by the cubes
