@@ -197,10 +197,14 @@ def connections(stage_set, result, width, most=8):
     return out
 
 
-def skin_far_from_noise(stage_set, pruned, reach, tall=2.0):
-    """Removed voxels farther than ``reach`` from every removed voxel standing ``tall`` or more above
+def skin_far_from_noise(stage_set, pruned, reach):
+    """Removed voxels farther than ``reach`` from every removed voxel standing 2 voxels or more above
     ``pruned``: the skin that the pruning and the minification take off convex edges and corners
     (a voxel or two), away from any noise, comes back.
+
+    A voxel stands 2 or more above ``pruned`` when none of its 26 neighbours is in it: every other
+    voxel lies at least 2 away (the neighbours at 1, √2 and √3), so the cube's dilation tells the
+    heights' distance transform's answer.
 
     Returns
     -------
@@ -209,10 +213,10 @@ def skin_far_from_noise(stage_set, pruned, reach, tall=2.0):
     """
     removed = stage_set & ~pruned
     out = np.zeros_like(removed)
-    box, above = height_above(removed, pruned, tall + 1)
+    box = bounding_box(removed, margin=1)  # every removed voxel's 26 neighbours in it
     if box is None:
         return out
-    noise = above >= tall
+    noise = removed[box] & ~dilated_by_cube(pruned[box])
     if not noise.any():
         out[box] = removed[box]
         return out
