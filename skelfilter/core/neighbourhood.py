@@ -92,10 +92,7 @@ def dilated_by_cube(volume):
     """
     out = np.array(volume, dtype=bool)
     for axis in range(out.ndim):
-        along = np.moveaxis(out, axis, 0)
-        before = along.copy()
-        along[1:] |= before[:-1]
-        along[:-1] |= before[1:]
+        _join_shifts(out, out.copy(), axis)
     return out
 
 
@@ -115,10 +112,16 @@ def dilated_by_cross(volume, iterations=1):
     for _ in range(iterations):
         before = out.copy()
         for axis in range(out.ndim):
-            along, source = np.moveaxis(out, axis, 0), np.moveaxis(before, axis, 0)
-            along[1:] |= source[:-1]
-            along[:-1] |= source[1:]
+            _join_shifts(out, before, axis)
     return out
+
+
+def _join_shifts(out, source, axis):
+    """``out |=`` ``source`` shifted by one voxel each way along ``axis``, in place (``source`` apart
+    from ``out``: numpy would copy an overlap anyway)."""
+    along, source = np.moveaxis(out, axis, 0), np.moveaxis(source, axis, 0)
+    along[1:] |= source[:-1]
+    along[:-1] |= source[1:]
 
 
 def surface_voxels(volume):
