@@ -87,9 +87,10 @@ def test_benchmark_writes_every_figure(tmp_path):
     runs = data["commands"]
     # a fresh process does at least what importing the package does
     assert min(runs["clean_s"], runs["everyday_s"], runs["read_write_s"]) > runs["import_s"] > 0
+    assert runs["help_s"] > 0
     # the 256 ratio, the exponents and the 512 memory need those sizes: not checked at 48 and 56
     assert set(data["targets"]) == {"volume total / EDT at 48", "clean bunny, seconds over read+write + 1 s",
-                                    "everyday scan (s)", "import skelfilter (s)"}
+                                    "everyday scan (s)", "import skelfilter (s)", "skelfilter --help (s)"}
     for value, limit, met in data["targets"].values():
         assert met == (value <= limit)
 
