@@ -172,7 +172,8 @@ def test_the_products_tests_import_no_experiment(path):
 
 def test_the_route_and_the_decision_each_have_one_home():
     # the decision: which balls and voxels stay; every module of it in core.decision, none elsewhere
-    decision = {"pruning_rules", "selection", "stage_pruning", "noise_estimate", "feature_restore", "two_sided"}
+    decision = {"pruning_rules", "selection", "stage_pruning", "noise_estimate", "feature_restore", "two_sided",
+                "noise_handles"}
     assert {n.rsplit(".", 1)[1] for n in MODULES if n.startswith("skelfilter.core.decision.")} == decision
     assert not {n for n in MODULES if n.rsplit(".", 1)[-1] in decision and ".decision." not in n}
     # the mesh's route: decided in mesh.route alone, which the mesh pipeline and nothing below reads

@@ -6,7 +6,14 @@ import argparse
 import numpy as np
 import pytest
 
-from experiments import ball_oracle, dent_indicator, learned_ball_decision, noise_coverage, volume_second_run
+from experiments import (
+    ball_oracle,
+    dent_indicator,
+    learned_ball_decision,
+    noise_coverage,
+    noise_handles,
+    volume_second_run,
+)
 
 
 def test_auc_against_counting_pairs():
@@ -125,3 +132,15 @@ def test_the_never_worse_guard_keeps_what_agrees_with_its_reference_and_gives_ba
     assert not guarded[14:17, 14:17, 32:35].any() and guarded[22:28, 22:28, 29:32].all()
     assert size.sum() == np.count_nonzero(out ^ noisy) and keep.sum() == 2  # the unchanged voxels and the bump
     assert never_worse.pieces(out ^ noisy, 4).max() > labels.max()  # cut by the cubes
+
+
+def test_closings_tunnels_only_fill_the_tunnel_not_the_pit():
+    block = np.zeros((20, 20, 20), dtype=bool)
+    block[3:17, 3:17, 3:17] = True
+    block[8, 8, 3:17] = False  # a tunnel a voxel wide
+    block[12, 12, 16] = False  # a pit
+    rows = dict(noise_handles.closings(block))
+    assert noise_handles.genus(block) == 1
+    assert noise_handles.genus(rows["closing, cross, tunnels only"]) == 0
+    assert rows["closing, cube"][12, 12, 16]  # the plain closing fills the pit, the tunnels only one does not
+    assert not rows["closing, cube, tunnels only"][12, 12, 16] and noise_handles.genus(block) == 1

@@ -17,7 +17,7 @@ import numpy as np
 
 from skelfilter.core import edt_filters, surface_field, volume_fine_pass
 from skelfilter.core import spacing as voxel_spacing
-from skelfilter.core.decision import feature_restore, stage_pruning, two_sided
+from skelfilter.core.decision import feature_restore, noise_handles, stage_pruning, two_sided
 from skelfilter.core.distance import distance_transform
 from skelfilter.core.neighbourhood import bounding_box, dilated_by_cross
 from skelfilter.errors import InputError, ParameterError, ResourceError
@@ -49,6 +49,7 @@ class DenoiseResult:
     voxels_changed: int = 0  # voxels added or removed: on the voxel grid of a mesh, on a volume's own
     route: object = None  # a mesh's skelfilter.mesh.route.Route: what ran and why
     dents: object = None  # decision.two_sided.DentReading where ``stages`` auto read the input for dents
+    noise_handles_closed: int = 0  # tunnels the noise left that `noise_handles` filled
 
 
 def resolve_params(params=None, **overrides):
@@ -122,6 +123,15 @@ def denoise_padded(volume, params, progress, foreground=None):
             spikes = edt_filters.needles(current)
             current &= ~spikes
             field[spikes] = -1.0
+    if params.noise_handles == "close" and not unchanged:
+        with progress.step("noise handles"):
+            tunnels, closed = noise_handles.filled_noise_handles(current)
+            current |= tunnels
+            field[tunnels] = 1.0
+        result.noise_handles_closed = closed
+        if closed:
+            progress.note(f"noise handles: {closed} {'tunnel' if closed == 1 else 'tunnels'} the noise left closed "
+                          f"({np.count_nonzero(tunnels)} voxels filled)")
     # The mesh and the voxels must agree: inside the surface iff in the mask.
     np.maximum(field, 1e-3, out=field, where=current)
     np.minimum(field, -1e-3, out=field, where=~current)

@@ -235,6 +235,17 @@ class DenoiseParams:
         "preset's (default: smooth; thesis: plain)",
         choices=("preset", "smooth", "plain"),
     )
+    noise_handles: str = _p(
+        "keep",
+        "Noise handles",
+        "tunnels the noise leaves through the denoised voxels (bumps side by side, a bump arched over a "
+        "dent, a thin wall pierced): 'close' fills the holes a closing by the 6-neighbour cross fills "
+        "wherever the fill closes a tunnel (it raises the Euler characteristic, joins no pieces and seals "
+        "no cavity), so a pit or a crease stays open and a tunnel wider than a voxel or two (a handle, a "
+        "ring, the gap under an arm) is kept; it lowers the voxels' genus, at a little more distance to "
+        "the clean shape where a fill stands under a bump; 'keep': the voxels as the stages left them",
+        choices=("keep", "close"),
+    )
     edt_filter: str = _p(
         "minify",
         "EDT filter",
