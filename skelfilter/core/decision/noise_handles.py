@@ -31,7 +31,7 @@ References
 import numpy as np
 from scipy import ndimage
 
-from skelfilter.core.neighbourhood import bounding_box, dilated_by_cross
+from skelfilter.core.neighbourhood import OFFSETS_26, bounding_box, dilated_by_cross
 
 CUBE = np.ones((3, 3, 3), dtype=bool)
 # The 27 cells a voxel touches (8 vertices, 12 edges, 6 faces, itself), as offsets on the doubled
@@ -158,7 +158,7 @@ def _joining(shape, labels, count):
     padded = np.pad(pieces, 1)
     low = np.full(len(at), np.iinfo(np.int32).max, dtype=np.int64)
     high = np.zeros(len(at), dtype=np.int64)
-    for offset in _CELL_OFFSETS:
+    for offset in OFFSETS_26:
         near = padded[tuple((at + 1 + offset).T)]
         high = np.maximum(high, near)
         low = np.where(near > 0, np.minimum(low, near), low)
