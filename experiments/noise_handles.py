@@ -10,7 +10,9 @@ after the two-sided decision, the result with ``noise_handles`` keep (the defaul
 off it too), then with ``noise_handles`` close. Then what closings of the kept result would do
 instead: a plain closing by the 6-neighbour cross, by the 3x3x3 cube, by Euclidean balls of 2 and 3
 voxels, and the same holes filled only where they close a tunnel (`noise_handles.filled_noise_handles`
-takes the cross). Each row: the genus, the voxel error |out xor clean| / |noisy xor clean|, new material
+takes the cross); then the dual, the bridges an opening by the cross removes, cut only where the cut
+opens a tunnel (`cut`: an arch of noise taken off rather than filled under), and that cut followed by
+``noise_handles`` close. Each row: the genus, the voxel error |out xor clean| / |noisy xor clean|, new material
 (voxels out of the clean shape and its bumps, over the clean volume) and clean lost (the clean shape
 but its dents, over its volume).
 """
@@ -71,6 +73,20 @@ def topological(mask, closed):
     return mask | rises[labels]
 
 
+def cut(mask):
+    """``mask`` less the pieces of what an opening by the cross removes whose removal cuts a tunnel: it
+    raises the Euler characteristic, and the piece touches one piece of the rest only (a cut that
+    splits a part off raises it too)."""
+    bridges = mask & ~ndimage.binary_opening(mask, CROSS)
+    labels, count = ndimage.label(bridges, noise_handles.CUBE)
+    rest = mask & ~bridges
+    # The pieces touch no common cell: chi(mask) - chi(mask less piece k) is piece k's change on the rest.
+    rises = noise_handles.euler_change(rest, bridges, labels, count) < 0
+    rises[noise_handles._joining(rest, labels, count)] = False
+    rises[0] = False
+    return mask & ~rises[labels]
+
+
 def closings(kept):
     plain = {
         "closing, cross": ndimage.binary_closing(kept, CROSS),
@@ -81,6 +97,9 @@ def closings(kept):
     yield from plain.items()
     for label, closed in plain.items():
         yield f"{label}, tunnels only", topological(kept, closed)
+    cut_off = cut(kept)
+    yield "opening by the cross, tunnels only (cut)", cut_off
+    yield "cut, then noise_handles close", cut_off | noise_handles.filled_noise_handles(cut_off)[0]
 
 
 def row(name, label, out, noise):

@@ -144,3 +144,14 @@ def test_closings_tunnels_only_fill_the_tunnel_not_the_pit():
     assert noise_handles.genus(rows["closing, cross, tunnels only"]) == 0
     assert rows["closing, cube"][12, 12, 16]  # the plain closing fills the pit, the tunnels only one does not
     assert not rows["closing, cube, tunnels only"][12, 12, 16] and noise_handles.genus(block) == 1
+
+
+def test_cut_takes_an_arch_off_a_block():
+    block = np.zeros((30, 30, 30), dtype=bool)
+    block[5:25, 5:25, 5:15] = True
+    block[10, 10, 15:18] = block[10, 19, 15:18] = True  # two posts
+    block[10, 10:20, 17] = True  # a bridge between them: an arch, genus 1
+    assert noise_handles.genus(block) == 1
+    cut = noise_handles.cut(block)
+    assert noise_handles.genus(cut) == 0 and not (cut & ~block).any()
+    assert (cut[5:25, 5:25, 5:15] == block[5:25, 5:25, 5:15]).all()  # the block itself stays
