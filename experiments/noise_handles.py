@@ -1,7 +1,7 @@
 """Issue 51's noise handles: where the default's tunnels come from, and what closes them.
 
     python -m experiments.noise_handles [--shapes cube bunny ...] [--kinds stripes bumps-dents ...]
-                                        [--seed 1] [--resolution 160]
+                                        [--seed 1] [--resolution 160] [--meshes [--cache DIR]]
 
 Every case runs the volume path on the noise grid's noisy mask (``denoise_volume``, fine pass off, as
 the thesis' noise at 160 voxels runs on meshes) and prints the voxel genus (`metrics.voxel_genus`,
@@ -18,6 +18,7 @@ but its dents, over its volume).
 """
 
 import argparse
+import os
 
 import numpy as np
 from scipy import ndimage
@@ -30,6 +31,7 @@ from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.params import DenoiseParams
 
 CROSS = ndimage.generate_binary_structure(3, 1)
+FILL = noise_handles.filled_noise_handles  # the step itself, while `on_meshes` puts `cut_mask_step` in its place
 
 
 def genus(mask):
@@ -111,13 +113,56 @@ def row(name, label, out, noise):
           f"{np.count_nonzero(clean & ~out & ~noise.dents) / clean.sum():.4f} |", flush=True)
 
 
+def on_meshes(args):
+    """The quality benchmark's way (the noisy marching-cubes mesh, ``--resolution``): keep, close, and
+    cut then close, scored by `quality.score` (Chamfer, the mesh's genus, its voxels' genus)."""
+    setup = quality.Setup(resolution=args.resolution, cache=args.cache, refresh=False, timeout=600)
+    print("| case | variant | mesh genus | voxel genus | Chamfer | new | clean lost |")
+    print("|---|---|---|---|---|---|---|")
+    for shape in args.shapes:
+        for kind in args.kinds:
+            case = quality.Case(shape, kind, args.seed)
+            quality.prepare(case, setup)
+            prep = quality.load_case(case, setup)
+            clean_genus = quality.metrics.genus(prep.clean, prep.grid, prep.noise.clean)["genus"]
+            noisy = quality.score(prep.marching, prep)
+            print(f"| {case.name} | clean / input | {clean_genus} / {noisy['genus']} | | {noisy['chamfer']:.3f} | | |")
+            for label, handles in (("keep (default)", "keep"), ("close", "close"), ("cut, then close", "cut")):
+                params = DenoiseParams(resolution=args.resolution,
+                                       noise_handles="keep" if handles == "keep" else "close")
+                step = noise_handles.filled_noise_handles
+                if handles == "cut":
+                    noise_handles.filled_noise_handles = cut_mask_step
+                try:
+                    scores = quality.score(mesh_pipeline.denoise_mesh(prep.marching, params), prep)
+                finally:
+                    noise_handles.filled_noise_handles = step
+                print(f"| {case.name} | {label} | {scores['genus']} | {scores['voxel_genus']} | "
+                      f"{scores['chamfer']:.3f} | {100 * scores['new_material']:.2f} % | "
+                      f"{100 * scores['clean_lost']:.2f} % |", flush=True)
+
+
+def cut_mask_step(mask):
+    """The pipeline's noise-handles step made cut-then-close: the voxels it flips (the cut ones and the
+    filled ones) through the mask it is handed, which the step ORs with the fill."""
+    cut_off = cut(mask)
+    mask &= cut_off  # the pipeline's mask, in place: the cut voxels go
+    return FILL(cut_off)
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--shapes", nargs="+", default=["cube", "bunny"])
     parser.add_argument("--kinds", nargs="+", default=["stripes", "bumps-dents"], choices=sorted(quality.NOISE_KINDS))
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--resolution", type=int, default=160)
+    parser.add_argument("--meshes", action="store_true",
+                        help="the quality benchmark's meshes instead: keep, close, cut then close")
+    parser.add_argument("--cache", default=os.path.join(quality.ROOT, "benchmark-cache"), help="noisy meshes' cache")
     args = parser.parse_args(argv)
+    if args.meshes:
+        on_meshes(args)
+        return
     params = DenoiseParams(fine_pass="off")
     print("| case | step or variant | genus | voxel error | new | clean lost |\n|---|---|---|---|---|---|")
     for shape in args.shapes:
