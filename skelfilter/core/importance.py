@@ -19,7 +19,7 @@ from scipy import ndimage
 
 from skelfilter.core.geodesic_landmarks import landmark_distances
 from skelfilter.core.geodesic_search import STEP, astar, hops_for
-from skelfilter.core.neighbourhood import OFFSETS_26, dilated_by_cube, flat_offsets, ravel, unravel
+from skelfilter.core.neighbourhood import CUBE, OFFSETS_26, dilated_by_cube, flat_offsets, ravel, unravel
 from skelfilter.errors import ParameterError
 from skelfilter.runtime.compiled import njit
 
@@ -100,7 +100,7 @@ def disconnected_pairs(boundary, a, b):
     Their geodesic is infinite: in the background stage, a skeleton voxel
     between the object and the box's frame has one feature point on each.
     """
-    labels = ndimage.label(boundary, structure=np.ones((3, 3, 3), bool))[0].reshape(-1)
+    labels = ndimage.label(boundary, structure=CUBE)[0].reshape(-1)
     return labels[a] != labels[b]
 
 

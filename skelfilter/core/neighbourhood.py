@@ -21,6 +21,9 @@ OFFSETS_26 = np.array(
 )
 STEP_LENGTHS_26 = np.sqrt((OFFSETS_26**2).sum(axis=1))
 
+# The 3x3x3 cube: the structuring element of 26-connectivity (`scipy.ndimage.label`'s pieces).
+CUBE = np.ones((3, 3, 3), dtype=bool)
+
 # The 6 face neighbours.
 OFFSETS_6 = np.array(
     [(-1, 0, 0), (1, 0, 0), (0, -1, 0), (0, 1, 0), (0, 0, -1), (0, 0, 1)], dtype=np.int64

@@ -15,10 +15,9 @@ from skelfilter.core.decision import noise_estimate
 from skelfilter.core.decision.noise_estimate import height_above
 from skelfilter.core.distance import distance_transform
 from skelfilter.core.line_opening import line_opening
-from skelfilter.core.neighbourhood import OFFSETS_26, bounding_box, dilated_by_cube, flat_offsets, push
+from skelfilter.core.neighbourhood import CUBE, OFFSETS_26, bounding_box, dilated_by_cube, flat_offsets, push
 from skelfilter.runtime.compiled import njit
 
-CUBE = np.ones((3, 3, 3), dtype=bool)
 # Voxels added to the estimated noise height before a removed part counts as a feature: the
 # estimate is a 99 % quantile of the noise's peaks, and the tallest noise blobs pass it by a voxel or
 # two (measured on the tuning shapes of benchmarks/quality.py, see docs/design/noise-estimate.md).

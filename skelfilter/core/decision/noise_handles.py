@@ -8,9 +8,9 @@ under an arm) is wider than the noise's.
 
 `filled_noise_handles` fills the holes that a closing by the 6-neighbour cross fills (gaps one voxel
 wide), but only those whose filling closes a tunnel: each 26-connected piece of the closing's new
-voxels is filled where it raises the Euler characteristic of the shape (`euler_change`) and seals
-no cavity. A piece that only fills a pit or a crease leaves the characteristic as it was, and stays
-open: the step adds no material but the tunnels' own.
+voxels is filled where it raises the Euler characteristic of the shape (`euler_change`), joins no
+two pieces of it and seals no cavity. A piece that only fills a pit or a crease leaves the
+characteristic as it was, and stays open: the step adds no material but the tunnels' own.
 
 The Euler characteristic of a voxel set taken as closed unit cubes (the cubical complex of the
 26-connected set) is chi = V - E + F - C over the vertices, edges, faces and cubes it holds, and for
@@ -31,9 +31,8 @@ References
 import numpy as np
 from scipy import ndimage
 
-from skelfilter.core.neighbourhood import OFFSETS_26, bounding_box, dilated_by_cross
+from skelfilter.core.neighbourhood import CUBE, OFFSETS_26, bounding_box, dilated_by_cross
 
-CUBE = np.ones((3, 3, 3), dtype=bool)
 # The 27 cells a voxel touches (8 vertices, 12 edges, 6 faces, itself), as offsets on the doubled
 # lattice where voxel (i, j, k) is the cube centred at (2i+1, 2j+1, 2k+1): a cell's coordinate is odd
 # along the axes it spans.
@@ -99,7 +98,8 @@ def filled_noise_handles(mask):
 
     The holes of ``mask`` that a closing by the 6-neighbour cross fills, taken piece by piece
     (26-connected) where filling the piece raises the Euler characteristic (`euler_change`: a tunnel
-    closed) and leaves no cavity beside it (a pocket sealed is no tunnel closed).
+    closed), joins no two pieces of ``mask`` and leaves no cavity beside it (a pocket sealed is no
+    tunnel closed).
 
     Parameters
     ----------
@@ -156,17 +156,18 @@ def _joining(shape, labels, count):
     at = np.argwhere(labels > 0)
     hole = labels[tuple(at.T)]
     padded = np.pad(pieces, 1)
-    low = np.full(len(at), np.iinfo(np.int32).max, dtype=np.int64)
+    none = np.iinfo(np.int64).max  # no piece of the shape beside: the least stays above the most (0)
+    low = np.full(len(at), none, dtype=np.int64)
     high = np.zeros(len(at), dtype=np.int64)
     for offset in OFFSETS_26:
         near = padded[tuple((at + 1 + offset).T)]
         high = np.maximum(high, near)
         low = np.where(near > 0, np.minimum(low, near), low)
-    least = np.full(count + 1, np.iinfo(np.int32).max, dtype=np.int64)
+    least = np.full(count + 1, none, dtype=np.int64)
     most = np.zeros(count + 1, dtype=np.int64)
     np.minimum.at(least, hole, low)
     np.maximum.at(most, hole, high)
-    return most > np.minimum(least, most)
+    return most > least
 
 
 def _cavities(solid):

@@ -37,7 +37,7 @@ from scipy import ndimage
 from skelfilter.core import ball_owners
 from skelfilter.core.decision.feature_restore import ball_closing
 from skelfilter.core.distance import distance_transform
-from skelfilter.core.neighbourhood import bounding_box, surface_voxels
+from skelfilter.core.neighbourhood import CUBE, bounding_box, surface_voxels
 
 # Voxels: the ball that closes the foreground's result. It fills the thesis' dents (about 2 voxels
 # across, as deep) with the halo around them; a concave edge or a mug's inside it fills along their
@@ -187,7 +187,7 @@ def _thin_part_feet(kept, thick):
     beyond = kept & ~thick
     if not beyond.any():
         return beyond
-    labels, count = ndimage.label(beyond, structure=np.ones((3, 3, 3), bool))
+    labels, count = ndimage.label(beyond, structure=CUBE)
     height = distance_transform(~thick)
     tallest = ndimage.maximum(height, labels, index=np.arange(1, count + 1))
     tall = np.concatenate(([False], np.asarray(tallest) > THIN_PART_HEIGHT))[labels]
