@@ -8,8 +8,9 @@ Each case is the quality benchmark's (its cached noisy mesh, made first where mi
 flags as a user runs it (the route finds the voxel lattice the noisy mesh was made on). Per case:
 
 - ``input`` / ``default``: the mesh Chamfer distance to the clean mesh (`metrics.surface_distances`), its
-  area over the clean mesh's, and the distance's two halves, the mean distance from the result's surface to the clean one (``r→c``: what stands out)
-  and from the clean surface to the result's (``c→r``: what the result lost or moved away from);
+  area over the clean mesh's, and the distance's two halves, the mean distance from the result's surface
+  to the clean one (``r→c``: what stands out) and from the clean surface to the result's (``c→r``: what
+  the result lost or moved away from);
 - on the noise grid, the default's voxels (its mesh voxelized) as a marching-cubes surface, and the same
   voxels repaired by the truth: the ``halos`` given back (clean voxels outside the dents that the output
   lost), the ``dents`` filled, the ``bumps`` left taken off;
