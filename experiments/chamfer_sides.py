@@ -2,7 +2,7 @@
 input's (issue 51, sixth round).
 
     python -m experiments.chamfer_sides [--shapes fandisk spot ...] [--kinds bumps-dents] [--seed 1]
-                                        [--laplacian] [--readings]
+                                        [--laplacian] [--readings] [--precision]
 
 Each case is the quality benchmark's (its cached noisy mesh, made first where missing), denoised with no
 flags as a user runs it (the route finds the voxel lattice the noisy mesh was made on). Per case:
@@ -18,6 +18,12 @@ flags as a user runs it (the route finds the voxel lattice the noisy mesh was ma
   (what a closing of the input by a ball of `HOLE_CLOSING` voxels adds) given back, with the bumps left;
 - ``--laplacian``: MeshLab's surface-preserving Laplacian (the benchmark's rival, 60°, 50 iterations) on
   the input's decimated mesh and on the default's output;
+- ``--precision``: how precise a reading has to be. The per-ball oracle (`benchmarks.oracle.owned_oracle`,
+  seams smoothed, as the quality benchmark's ``--oracle``) decides against the clean shape; here against
+  the clean shape's surface moved by a smooth random field of standard deviation σ voxels (white noise
+  smoothed by a Gaussian of `PRECISION_LENGTH` voxels, rescaled), or moved in by ``b`` voxels everywhere,
+  and against the input's majority reading (every ball decided by it, not only where the default trusts
+  it, and not only to add to the foreground's result);
 - ``--readings``: the input's majority reading (`two_sided.majority_reading`) per window and threshold:
   the offset of its surface from the clean shape's (quartiles, voxels, negative inside; a reading equal
   to the clean mask reads -1, its surface voxels being the inner layer) and the shares of the clean
@@ -34,9 +40,12 @@ import trimesh
 from scipy import ndimage
 from skimage import measure
 
-from benchmarks import quality, shapes
+from benchmarks import oracle, quality, shapes
+from skelfilter.core import ball_owners
+from skelfilter.core.decision import two_sided
 from skelfilter.core.decision.feature_restore import ball_closing
 from skelfilter.evaluation import metrics
+from skelfilter.mesh import marching_cubes
 from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.mesh.voxelize import voxelize_on_grid
 from skelfilter.params import DenoiseParams
@@ -49,6 +58,8 @@ distances = importlib.import_module("skelfilter.evaluation.metrics.surface_dista
 HOLE_CLOSING = 2.5
 # Voxels from the clean surface within which the readings are scored.
 NEAR = 4
+# Voxels: the correlation length of the random field that moves the clean surface (``--precision``).
+PRECISION_LENGTH = 4.0
 
 
 def marching_mesh(mask, grid):
@@ -101,7 +112,19 @@ def reading_rows(noise):
     return rows
 
 
-def case_rows(shape, kind, seed, with_laplacian, with_readings):
+def moved_readings(noise, seed):
+    """(label, mask) of the clean shape with its surface moved (see the module's docstring), and the
+    input's majority reading for comparison."""
+    clean = noise.clean
+    signed = ndimage.distance_transform_edt(~clean) - ndimage.distance_transform_edt(clean)
+    field = ndimage.gaussian_filter(np.random.default_rng(seed).standard_normal(clean.shape), PRECISION_LENGTH)
+    field /= field.std()
+    yield from ((f"oracle, surface moved by σ {sigma:g}", signed + sigma * field < 0) for sigma in (0, 0.5, 1, 2))
+    yield from ((f"oracle, surface moved in by {inward:g}", signed + inward < 0) for inward in (0.5, 1))
+    yield "every ball against the majority reading", two_sided.majority_reading(noise.noisy)
+
+
+def case_rows(shape, kind, seed, with_laplacian, with_readings, with_precision=False):
     setup = quality.Setup(160, os.path.abspath("benchmark-cache"), False, 900.0)
     case = quality.Case(shape, kind, seed)
     quality.prepare(case, setup)
@@ -131,6 +154,14 @@ def case_rows(shape, kind, seed, with_laplacian, with_readings):
     if with_laplacian:
         rows += [(label, f"Chamfer {metrics.surface_distances(laplacian(mesh), prep.clean, grid)[0]:.3f}")
                  for label, mesh in (("Laplacian of the input", prep.decimated), ("Laplacian of the default", output))]
+    if with_precision:
+        for label, reading in moved_readings(noise, seed):
+            decided = ball_owners.seam_smoothed(noise.noisy, oracle.owned_oracle(noise.noisy, reading))
+            mesh = marching_cubes.mask_to_mesh(decided, grid)
+            bumps = (decided & noise.bumps).sum() / noise.bumps.sum()
+            dents = (noise.dents & ~decided).sum() / max(noise.dents.sum(), 1)
+            rows.append((label, f"Chamfer {metrics.surface_distances(mesh, prep.clean, grid)[0]:.3f}, "
+                                f"bumps left {bumps:.2f}, dents left {dents:.2f}"))
     if with_readings:
         rows += reading_rows(noise)
     return rows
@@ -144,11 +175,12 @@ def main(argv=None):
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--laplacian", action="store_true", help="also MeshLab's Laplacian (needs pymeshlab)")
     parser.add_argument("--readings", action="store_true", help="also the majority readings' offsets")
+    parser.add_argument("--precision", action="store_true", help="also the oracle against a moved clean surface")
     args = parser.parse_args(argv)
     print("| case | result | measures |\n|---|---|---|")
     for shape in args.shapes:
         for kind in args.kinds:
-            for label, text in case_rows(shape, kind, args.seed, args.laplacian, args.readings):
+            for label, text in case_rows(shape, kind, args.seed, args.laplacian, args.readings, args.precision):
                 print(f"| {shape} {kind} | {label} | {text} |", flush=True)
 
 

@@ -1,5 +1,7 @@
 import os
+import shutil
 import signal
+import sys
 
 import numpy as np
 import pytest
@@ -20,6 +22,14 @@ def pytest_configure(config):
 
 
 PACKAGE_DATA = os.path.join(HERE, "..", "skelfilter", "data")
+
+
+def skelfilter_command():
+    """The ``skelfilter`` console script installed for the interpreter running the tests (beside it, as
+    in a virtual environment that is not activated), else the one on the PATH: not another
+    installation's."""
+    beside = os.path.join(os.path.dirname(sys.executable), "skelfilter")
+    return beside if os.path.exists(beside) else shutil.which("skelfilter") or "skelfilter"
 
 
 def data_path(name):

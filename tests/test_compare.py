@@ -8,6 +8,7 @@ import subprocess
 import numpy as np
 import pytest
 import trimesh
+from conftest import skelfilter_command
 from PIL import Image
 
 from skelfilter.errors import InputError, ParameterError
@@ -171,7 +172,7 @@ USER_METHODS = ["input", "skelfilter", "Laplacian", "Two-step", "MLS (APSS)", "R
 
 
 def _compare(args, cwd):
-    proc = subprocess.run(["skelfilter", "compare", *args, "--quiet"], capture_output=True, text=True, cwd=cwd,
+    proc = subprocess.run([skelfilter_command(), "compare", *args, "--quiet"], capture_output=True, text=True, cwd=cwd,
                           timeout=600)
     return proc
 
@@ -273,7 +274,7 @@ def test_preview_shows_the_broad_side_well_lit(tmp_path):
     bumps = [manifold3d.Manifold.sphere(0.06, 24).translate((x, y, 0.05)) for x in (-0.3, 0.3) for y in (-0.3, 0.3)]
     solid = manifold3d.Manifold.batch_boolean([plate] + bumps, manifold3d.OpType.Add).to_mesh()
     trimesh.Trimesh(np.asarray(solid.vert_properties)[:, :3], np.asarray(solid.tri_verts)).export(tmp_path / "p.ply")
-    proc = subprocess.run(["skelfilter", "denoise", "p.ply", "out.ply", "--preview", "v.png", "--quiet"],
+    proc = subprocess.run([skelfilter_command(), "denoise", "p.ply", "out.ply", "--preview", "v.png", "--quiet"],
                           cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     image = np.asarray(Image.open(tmp_path / "v.png").convert("L"), dtype=float)

@@ -5,6 +5,7 @@ import argparse
 
 import numpy as np
 import pytest
+from scipy import ndimage
 
 from experiments import (
     ball_oracle,
@@ -175,3 +176,15 @@ def test_the_dent_rim_guard_gives_back_what_lies_within_delta_of_a_narrow_hole()
             expected[tuple(point)] = np.sqrt(((hole_points - point) ** 2).sum(axis=1)).min() <= delta
         assert np.array_equal(guarded, expected)
         assert (guarded & ~output).any() and not guarded[4:6, 4:6, 12:14].any()
+
+
+def test_the_moved_readings_are_the_clean_shape_at_sigma_zero_and_its_erosion_moved_in_by_one():
+    clean = np.zeros((32, 32, 32), dtype=bool)
+    clean[4:28, 5:27, 6:26] = True
+    noise = argparse.Namespace(clean=clean, noisy=clean)
+    readings = dict(chamfer_sides.moved_readings(noise, seed=1))
+    assert np.array_equal(readings["oracle, surface moved by σ 0"], clean)
+    assert np.array_equal(readings["oracle, surface moved in by 1"], ndimage.binary_erosion(clean))
+    assert np.array_equal(readings["oracle, surface moved in by 0.5"], clean)
+    moved = readings["oracle, surface moved by σ 2"]
+    assert (moved ^ clean).any() and moved[14:18, 14:18, 14:18].all()  # the surface moves, the core stays
