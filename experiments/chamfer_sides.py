@@ -63,7 +63,9 @@ PRECISION_LENGTH = 4.0
 
 
 def marching_mesh(mask, grid):
-    """The marching-cubes surface of ``mask`` in the grid's coordinates."""
+    """The marching-cubes surface of ``mask``'s indicator at one half, in the grid's coordinates: the voxels'
+    own staircase (`marching_cubes.mask_to_mesh`, which the quality benchmark's oracle uses, goes through
+    the mask's distance field instead)."""
     vertices, faces, _, _ = measure.marching_cubes(np.pad(mask, 1).astype(np.float32), 0.5)
     return trimesh.Trimesh((vertices - 1) * grid.pitch + grid.origin, faces, process=False)
 
@@ -92,10 +94,15 @@ def rim_guard(noisy, output, delta):
     return output | (noisy & ~output & (ndimage.distance_transform_edt(~holes) <= delta))
 
 
+def signed_distance(mask):
+    """Voxels to ``mask``'s surface, negative inside (its inner layer -1)."""
+    return ndimage.distance_transform_edt(~mask) - ndimage.distance_transform_edt(mask)
+
+
 def reading_rows(noise):
     """The majority readings' offsets and shares (see the module's docstring)."""
     clean = noise.clean
-    signed = ndimage.distance_transform_edt(~clean) - ndimage.distance_transform_edt(clean)
+    signed = signed_distance(clean)
     near = np.abs(signed) <= NEAR
     rows = []
     for window in (11, 15):
@@ -116,7 +123,7 @@ def moved_readings(noise, seed):
     """(label, mask) of the clean shape with its surface moved (see the module's docstring), and the
     input's majority reading for comparison."""
     clean = noise.clean
-    signed = ndimage.distance_transform_edt(~clean) - ndimage.distance_transform_edt(clean)
+    signed = signed_distance(clean)
     field = ndimage.gaussian_filter(np.random.default_rng(seed).standard_normal(clean.shape), PRECISION_LENGTH)
     field /= field.std()
     yield from ((f"oracle, surface moved by σ {sigma:g}", signed + sigma * field < 0) for sigma in (0, 0.5, 1, 2))
