@@ -31,7 +31,7 @@ from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.params import DenoiseParams
 
 CROSS = ndimage.generate_binary_structure(3, 1)
-FILL = noise_handles.filled_noise_handles  # the step itself, while `on_meshes` puts `cut_mask_step` in its place
+FILL = noise_handles.filled_noise_handles  # the step itself: `on_meshes` puts `cut_mask_step` in its place and back
 
 
 def genus(mask):
@@ -130,13 +130,12 @@ def on_meshes(args):
             for label, handles in (("keep (default)", "keep"), ("close", "close"), ("cut, then close", "cut")):
                 params = DenoiseParams(resolution=args.resolution,
                                        noise_handles="keep" if handles == "keep" else "close")
-                step = noise_handles.filled_noise_handles
                 if handles == "cut":
                     noise_handles.filled_noise_handles = cut_mask_step
                 try:
                     scores = quality.score(mesh_pipeline.denoise_mesh(prep.marching, params), prep)
                 finally:
-                    noise_handles.filled_noise_handles = step
+                    noise_handles.filled_noise_handles = FILL
                 print(f"| {case.name} | {label} | {scores['genus']} | {scores['voxel_genus']} | "
                       f"{scores['chamfer']:.3f} | {100 * scores['new_material']:.2f} % | "
                       f"{100 * scores['clean_lost']:.2f} % |", flush=True)
