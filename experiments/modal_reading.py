@@ -5,9 +5,10 @@
 
 The two-sided decision needs a reading of where the clean surface is. The majority reading
 (`two_sided.majority_reading`) spreads as wide as the noise (its surface 1-3 voxels either side of the
-clean one). The *modal* reading (`modal_reading`) moves it to the height most of the input's
-surface sits at nearby: a trimmed local mean (a Gaussian of ``sigma`` voxels, over the surface voxels
-within ``tau`` of the running mean), not the bumps' tops or the dents' floors.
+clean one). The *modal* reading (`two_sided.modal_reading`, the default's decision's since this round)
+moves it to the height most of the input's surface sits at nearby: a trimmed local mean (a Gaussian of
+``sigma`` voxels, over the surface voxels within ``tau`` of the running mean), not the bumps' tops or the
+dents' floors.
 
 Each case is the quality benchmark's (its cached noisy mesh, made first where missing), scored on the
 noise grid against the clean mask and the clean mesh. For each reading (the clean mask itself, the
@@ -37,8 +38,9 @@ from scipy import ndimage
 from benchmarks import oracle, quality, shapes
 from experiments.chamfer_sides import chamfer_halves, marching_mesh, signed_distance
 from skelfilter.core import ball_owners
+from skelfilter.core.decision import two_sided
 from skelfilter.core.decision.feature_restore import ball_closing
-from skelfilter.core.decision.two_sided import MAJORITY_WINDOW, majority_reading
+from skelfilter.core.decision.two_sided import majority_reading, modal_reading
 from skelfilter.core.neighbourhood import surface_voxels
 from skelfilter.evaluation import metrics
 from skelfilter.mesh import marching_cubes
@@ -46,63 +48,12 @@ from skelfilter.mesh import pipeline as mesh_pipeline
 from skelfilter.mesh.voxelize import voxelize_on_grid
 from skelfilter.params import DenoiseParams
 
-# Voxels: the Gaussian over which the modal reading averages the surface's heights, and the band around
-# the running average within which a surface voxel counts (a thesis bump stands 3 voxels).
-SIGMA = 4.0
-BAND = 1.0
-# Trimmed averages after the first, plain one.
-ROUNDS = 4
-# Voxels: the furthest the modal reading moves from the majority reading.
-REACH = 6.0
 # Voxels: the ball whose closing of the input gives its narrow holes (the thesis' dents are 2.1 in radius).
 HOLE_CLOSING = 3.5
 # Voxels around the holes within which what the default removed is given back (the halos).
 HALO = 2.0
 # Percentiles of the offsets printed.
 PERCENTILES = (10, 25, 50, 75, 90)
-
-
-def modal_reading(volume, window=MAJORITY_WINDOW, sigma=SIGMA, band=BAND):
-    r"""The input's modal surface: the majority reading moved to the height most of ``volume``'s surface
-    sits at nearby.
-
-    Let :math:`d` be the signed distance to the majority reading's surface (voxels, negative inside,
-    measured from the surface between the voxels) and :math:`S` the surface voxels of ``volume``, each at
-    height :math:`s = d + 1/2` (its outer face). The height field is a Gaussian-weighted mean of the
-    heights, taken again `ROUNDS` times over only the surface voxels within ``band`` of it:
-
-    .. math:: h_{k+1} = \frac{G_\sigma * (s\,w_k)}{G_\sigma * w_k},\qquad
-              w_k = [x \in S]\,[\,|s - h_k| < \text{band}\,]
-
-    (:math:`w_0 = [x \in S]`), a trimmed mean that settles on the local mode of the heights. The reading is
-    :math:`d < h` (:math:`h` clipped to `REACH`; 0 far from every surface voxel).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> box = np.zeros((64, 64, 64), bool); box[12:52, 12:52, 12:52] = True
-    >>> bumpy = box.copy(); bumpy[24:27, 24:27, 52:55] = True; bumpy[36:39, 36:39, 49:52] = False
-    >>> reading = modal_reading(bumpy)
-    >>> bool(reading[25, 25, 52]), bool(reading[37, 37, 51])    # the bump's foot out, the dent's floor in
-    (False, True)
-    """
-    majority = majority_reading(volume, window)
-    if not majority.any():
-        return majority
-    distance = signed_distance(majority).astype(np.float32)
-    distance -= 0.5 * np.sign(distance)
-    surface = surface_voxels(volume).astype(np.float32)
-    heights = (distance + 0.5) * surface
-
-    def local_mean(weights):
-        total = ndimage.gaussian_filter(weights, sigma)
-        return ndimage.gaussian_filter(heights * weights, sigma) / np.maximum(total, 1e-6), total
-
-    height, total = local_mean(surface)
-    for _ in range(ROUNDS):
-        height, total = local_mean(surface * (np.abs(distance + 0.5 - height) < band))
-    height = np.clip(np.where(total > 1e-3, height, 0.0), -REACH, REACH)
-    return distance < height
 
 
 def offsets(reading, clean):
@@ -161,8 +112,8 @@ def main(argv=None):
                         choices=sorted(shapes.SHAPES))
     parser.add_argument("--kinds", nargs="+", default=["bumps-dents"], choices=sorted(quality.NOISE_KINDS))
     parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--taus", nargs="+", type=float, default=[1.0])
-    parser.add_argument("--sigmas", nargs="+", type=float, default=[4.0])
+    parser.add_argument("--taus", nargs="+", type=float, default=[two_sided.MODAL_BAND])
+    parser.add_argument("--sigmas", nargs="+", type=float, default=[two_sided.MODAL_SIGMA])
     args = parser.parse_args(argv)
     print("| case | reading | measures |\n|---|---|---|")
     for shape in args.shapes:

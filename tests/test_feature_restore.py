@@ -211,6 +211,18 @@ def test_ball_closing_matches_scipy_closing_by_a_ball(radius):
     assert (feature_restore.ball_closing(volume, radius) == expected).all()
 
 
+@pytest.mark.parametrize("radius", [1.0, 2.0, 3.0])
+def test_ball_opening_matches_scipy_opening_by_a_ball(radius):
+    volume = ndimage.binary_closing(np.random.default_rng(int(radius)).random((18, 16, 14)) < 0.6)
+    r = int(radius)
+    grid = np.indices((2 * r + 1,) * 3) - r
+    ball = (grid ** 2).sum(axis=0) <= radius ** 2
+    padded = np.pad(volume, r + 1)
+    expected = ndimage.binary_opening(padded, structure=ball)[r + 1:-r - 1, r + 1:-r - 1, r + 1:-r - 1]
+    assert expected.any() and (feature_restore.ball_opening(volume, radius) == expected).all()
+    assert not feature_restore.ball_opening(np.zeros((5, 5, 5), bool), radius).any()
+
+
 def test_along_lines_keeps_a_dented_leg_and_drops_the_blobs_on_it():
     body = _block((40, 40, 80), 5, 35)
     body[:, :, 35:] = False

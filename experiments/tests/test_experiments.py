@@ -197,18 +197,3 @@ def test_the_offsets_of_the_clean_shape_read_its_inner_layer():
     box[4:16, 4:16, 4:16] = True
     assert np.array_equal(modal_reading.offsets(box, box), [-1.0] * len(modal_reading.PERCENTILES))
     assert modal_reading.offsets(ndimage.binary_dilation(box), box)[2] == 1.0  # one voxel out
-
-
-def test_the_modal_reading_ignores_a_bump_and_a_dent_and_rounds_the_edges_less_than_the_majority_reading():
-    from experiments import modal_reading
-
-    box = np.zeros((64, 64, 64), dtype=bool)
-    box[12:52, 12:52, 12:52] = True
-    noisy = box.copy()
-    noisy[24:27, 24:27, 52:55] = True  # a bump 3 voxels high on the top face
-    noisy[36:39, 36:39, 49:52] = False  # a dent 3 deep
-    reading = modal_reading.modal_reading(noisy)
-    for column in (np.s_[24:27, 24:27, 44:60], np.s_[36:39, 36:39, 44:60], np.s_[30:33, 30:33, 44:60]):
-        assert np.array_equal(reading[column], box[column])  # the bump's, the dent's, the face between them
-    assert (reading ^ box).sum() < (modal_reading.majority_reading(noisy) ^ box).sum()
-    assert not modal_reading.modal_reading(np.zeros((20, 20, 20), dtype=bool)).any()

@@ -142,7 +142,7 @@ def denoise_padded(volume, params, progress, foreground=None):
 
 def _both_sides(volume, kept, field, progress):
     """``stages`` auto after the foreground stage: where its result ``kept`` reads as pitted (the input
-    has dents), both sides decided by the input's majority reading (`two_sided`); the field follows
+    has dents), both sides decided by the input's modal reading (`two_sided`); the field follows
     the voxels that changed. Returns (mask, field, `two_sided.DentReading`)."""
     with progress.step("dents read"):
         reading = two_sided.read_dents(kept)

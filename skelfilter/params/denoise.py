@@ -210,7 +210,7 @@ class DenoiseParams:
         "Stages",
         "which stages run: foreground removes bumps, background removes dents (§3.1.1); 'auto': the "
         "foreground, then, where its result is pitted (the input has dents too), both sides decided ball "
-        "by ball against the input's majority reading on its thick parts; 'preset': the preset's "
+        "by ball against the input's modal reading on its thick parts; 'preset': the preset's "
         "(default: auto; thesis: both)",
         choices=("preset", "both", "foreground", "background", "auto"),
         summary="remove bumps, and dents where found ('auto', default)",

@@ -14,8 +14,8 @@ set for bumps, the background's for dents):
 4. `feature_restore`: what the pruning removed that is no noise, given back (features by their extent,
    the noise on them excepted, cut pieces joined, edge skins).
 5. `two_sided` (``stages`` auto): whether the foreground's result reads as pitted (the input has dents),
-   and where it does, what a per-ball decision on both sides against the input's majority reading adds
-   to it on its thick parts.
+   and where it does, a per-ball decision on both sides against the input's modal reading in its place
+   on the thick parts.
 
 With ``prune`` measured, a stage that finds no noise gives its input back; as told, it prunes at t.
 """

@@ -121,6 +121,15 @@ def ball_closing(volume, radius):
     return (distance_transform(grown) > radius)[pad:-pad, pad:-pad, pad:-pad]
 
 
+def ball_opening(volume, radius):
+    """``volume`` opened by a ball of ``radius`` voxels (Euclidean): the union of the balls of that radius
+    that fit in it (the grid's outside counts as the complement)."""
+    centres = distance_transform(volume) > radius
+    if not centres.any():
+        return centres
+    return distance_transform(~centres) <= radius
+
+
 @njit()
 def _descend(height, found, seeds, steps, tolerance):
     """Mark (in ``found``) the voxels of height > 0 reached from ``seeds`` through 26-neighbours on a

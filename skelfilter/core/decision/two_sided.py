@@ -1,5 +1,5 @@
 """Two-sided noise: whether the input has dents as well as bumps, and where it has, both sides decided
-ball by ball against the input's majority reading on its thick parts.
+ball by ball against the input's modal reading on its thick parts.
 
 The foreground stage takes the bumps off and leaves the dents, widened by a halo: the pruning rounds
 off every dent's rim, a layer as deep as the dent around it, so on noise with dents the default's
@@ -13,20 +13,21 @@ inside), and neither stage's noise estimate tells whether an input has dents at 
    counted per voxel of K's surface (the *pitted depth*) is at least `PITTED_DEPTH` on inputs with
    dents, under it on clean inputs and on bumps alone.
 2. `decide_both_sides`: where it is, each skeleton ball of the input, on both sides of the surface, is
-   decided by the input's majority reading (`majority_reading`: a voxel is in where most of the
-   `MAJORITY_WINDOW`-wide cube around it is; the median of the input's signed distance over that cube
-   has the same sign, so it is the modal surface, which a minority of bumps and dents on either side
-   does not move): a foreground ball centred outside the reading is a bump's, a background ball
-   centred inside it a dent's, and the voxels they own (`skelfilter.core.ball_owners`) change side.
-   What that decision adds to K is added: the dents filled, and the halos the pruning took around
-   them given back; nothing K keeps is taken (its features, edges and thin parts stay as the foreground
-   stage left them, and the bumps it removed stay removed). A window rounds off thin parts and narrow
-   concavities as well as noise, so the decision holds only near the thick parts of both sides of the
-   reading, and not at the feet of the thin parts or the mouths of the slots that stand out of them
-   (`trusted_parts`).
+   decided by the input's modal reading (`modal_reading`): a foreground ball centred outside it is a
+   bump's, a background ball centred inside it a dent's, and the voxels they own
+   (`skelfilter.core.ball_owners`) change side. The modal reading starts from the majority reading
+   (`majority_reading`: a voxel is in where most of the `MAJORITY_WINDOW`-wide cube around it is, the
+   sign of the median of the input's signed distance over the cube), which the noise moves by up to its
+   own height where dents or bumps cluster, and moves it to the height most of the input's surface sits
+   at nearby (a trimmed local mean): not the bumps' tops, not the dents' floors. A window rounds off thin
+   parts and narrow concavities as well as noise, so the decision replaces K only near the thick parts
+   of both sides of the majority reading, and not at the feet of the thin parts or the mouths of the
+   slots that stand out of them (`trusted_parts`); there it fills the dents, gives back the halos the
+   pruning took around them and takes the bumps K kept, but of K only what an opening of the input by
+   a ball of `BUMP_RADIUS` takes (the shape's edges, which a window rounds, stay).
 
 Measured on the quality benchmark's shapes (docs/design/noise-estimate.md, "Both sides decided by the
-majority reading").
+majority reading" and "The modal reading").
 """
 
 from dataclasses import dataclass
@@ -35,7 +36,7 @@ import numpy as np
 from scipy import ndimage
 
 from skelfilter.core import ball_owners
-from skelfilter.core.decision.feature_restore import ball_closing
+from skelfilter.core.decision.feature_restore import ball_closing, ball_opening
 from skelfilter.core.distance import distance_transform
 from skelfilter.core.neighbourhood import CUBE, bounding_box, surface_voxels
 
@@ -52,11 +53,23 @@ PITTED_DEPTH = 0.77
 MAJORITY_WINDOW = 15
 # Voxels around the reading's thick parts (those a ball of half the window fits in) where the decision holds.
 THICK_MARGIN = 4.0
+# Voxels: the Gaussian over which the modal reading averages the surface's heights, and the band around
+# the running average within which a surface voxel counts (a thesis bump stands 3 voxels, so its top and a
+# dent's floor fall outside it once the average is near the clean surface).
+MODAL_SIGMA = 4.0
+MODAL_BAND = 1.0
+# Trimmed averages after the first, plain one.
+MODAL_ROUNDS = 4
+# Voxels: the furthest the modal reading moves from the majority reading.
+MODAL_REACH = 6.0
 # Voxels: a part of the foreground's result standing further than this out of the thick parts is a thin
 # part (a leg, a fin, a rim), not a bump's top (the thesis' bumps stand 3 voxels), and the decision keeps
 # off its foot, within `FOOT_REACH` of it, so that it is not cut from the body.
 THIN_PART_HEIGHT = 4.0
 FOOT_REACH = THICK_MARGIN + 1.0
+# Voxels: the decision takes from the foreground's result only what an opening by this ball takes from
+# the input (the thesis' bumps are 2.1 voxels in radius; a right-angled edge loses a sliver).
+BUMP_RADIUS = 3.5
 
 
 @dataclass
@@ -82,7 +95,7 @@ class DentReading:
         if not self.found:
             return f"dents: none read (the result is pitted {self.depth:.2f} voxels deep, dents from {PITTED_DEPTH:g})"
         return (f"dents: the result is pitted {self.depth:.2f} voxels deep: both sides decided by the input's "
-                f"majority reading, {self.changed} voxels changed")
+                f"modal reading, {self.changed} voxels changed")
 
 
 def read_dents(kept):
@@ -120,6 +133,52 @@ def majority_reading(volume, window=MAJORITY_WINDOW):
     return ndimage.uniform_filter(volume.astype(np.float32), window, mode="constant") > 0.5
 
 
+def modal_reading(volume, window=MAJORITY_WINDOW, sigma=MODAL_SIGMA, band=MODAL_BAND):
+    r"""The input's modal surface: the majority reading moved to the height most of ``volume``'s surface
+    sits at nearby.
+
+    Let :math:`d` be the signed distance to the majority reading's surface (voxels, negative inside,
+    measured from the surface between the voxels) and :math:`S` the surface voxels of ``volume``, each at
+    height :math:`s = d + 1/2` (its outer face). The height field is a Gaussian-weighted mean of the
+    heights, taken again `MODAL_ROUNDS` times over only the surface voxels within ``band`` of it:
+
+    .. math:: h_{k+1} = \frac{G_\sigma * (s\,w_k)}{G_\sigma * w_k},\qquad
+              w_k = [x \in S]\,[\,|s - h_k| < \text{band}\,]
+
+    (:math:`w_0 = [x \in S]`), a trimmed mean that settles on the local mode of the heights. The reading is
+    :math:`d < h` (:math:`h` clipped to `MODAL_REACH`; 0 far from every surface voxel).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> box = np.zeros((64, 64, 64), bool); box[12:52, 12:52, 12:52] = True
+    >>> bumpy = box.copy(); bumpy[24:27, 24:27, 52:55] = True; bumpy[36:39, 36:39, 49:52] = False
+    >>> reading = modal_reading(bumpy)
+    >>> bool(reading[25, 25, 52]), bool(reading[37, 37, 51])    # the bump's foot out, the dent's floor in
+    (False, True)
+    >>> int((reading ^ box).sum()) < int((majority_reading(bumpy) ^ box).sum())   # the edges rounded less
+    True
+    """
+    majority = majority_reading(volume, window)
+    if not majority.any():
+        return majority
+    distance = distance_transform(~majority).astype(np.float32)
+    distance -= distance_transform(majority)
+    distance -= 0.5 * np.sign(distance)
+    surface = surface_voxels(volume).astype(np.float32)
+    heights = (distance + 0.5) * surface
+
+    def local_mean(weights):
+        total = ndimage.gaussian_filter(weights, sigma)
+        return ndimage.gaussian_filter(heights * weights, sigma) / np.maximum(total, 1e-6), total
+
+    height, total = local_mean(surface)
+    for _ in range(MODAL_ROUNDS):
+        height, total = local_mean(surface * (np.abs(distance + 0.5 - height) < band))
+    height = np.clip(np.where(total > 1e-3, height, 0.0), -MODAL_REACH, MODAL_REACH)
+    return distance < height
+
+
 def thick_parts(reading, window=MAJORITY_WINDOW, margin=THICK_MARGIN):
     """The voxels within ``margin`` voxels of the balls of radius half the window that fit in ``reading``
     (its opening by that ball, widened): where a window's reading is the shape's, not its thin parts
@@ -132,10 +191,10 @@ def thick_parts(reading, window=MAJORITY_WINDOW, margin=THICK_MARGIN):
 
 
 def decide_both_sides(volume, kept, window=MAJORITY_WINDOW):
-    """The two-sided decision (see the module's docstring): ``kept`` with what the per-ball decision
-    against the majority reading of ``volume`` (its bumps' and dents' balls' voxels changed side, the
-    seams smoothed: `ball_owners.seam_smoothed`) adds to it where the reading is trusted
-    (`trusted_parts`).
+    """The two-sided decision (see the module's docstring): ``kept`` with the per-ball decision against
+    the modal reading of ``volume`` (its bumps' and dents' balls' voxels changed side, the seams smoothed:
+    `ball_owners.seam_smoothed`) in its place where the majority reading is trusted (`trusted_parts`),
+    taking from ``kept`` only what an opening of ``volume`` by a ball of `BUMP_RADIUS` takes.
 
     Parameters
     ----------
@@ -150,10 +209,10 @@ def decide_both_sides(volume, kept, window=MAJORITY_WINDOW):
     -------
     bool ndarray
     """
-    reading = majority_reading(volume, window)
-    thick = trusted_parts(reading, volume, kept, window)
+    thick = trusted_parts(majority_reading(volume, window), volume, kept, window)
     if not thick.any():
         return kept.copy()
+    reading = modal_reading(volume, window)
     # Only balls near the surface can be centred across the reading from their side; their voxels lie
     # within a window of it.
     owners = [ball_owners.ray_owners(side, reach=window)
@@ -161,7 +220,10 @@ def decide_both_sides(volume, kept, window=MAJORITY_WINDOW):
     flat = reading.reshape(-1)
     decided = ball_owners.owned_output(volume, *owners, ~flat[owners[0][2]], flat[owners[1][2]])
     decided = ball_owners.seam_smoothed(volume, decided)
-    return kept | (decided & thick)
+    # What it takes from the foreground's result, only where the input stands out narrower than a
+    # noise-sized ball: the bumps, not the shape's edges, which a window rounds off.
+    taken = kept & ~decided & thick & ~ball_opening(volume, BUMP_RADIUS)
+    return (kept & ~taken) | (decided & thick)
 
 
 def trusted_parts(reading, volume, kept, window=MAJORITY_WINDOW):
