@@ -174,12 +174,18 @@ def case_rows(shape, kind, seed, with_laplacian, with_readings, with_precision=F
     return rows
 
 
-def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+def case_parser(description):
+    """A parser of the quality benchmark's cases these experiments run: ``--shapes``, ``--kinds``, ``--seed``."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--shapes", nargs="+", default=["fandisk", "spot", "cube", "quadruped"],
                         choices=sorted(shapes.SHAPES))
     parser.add_argument("--kinds", nargs="+", default=["bumps-dents"], choices=sorted(quality.NOISE_KINDS))
     parser.add_argument("--seed", type=int, default=1)
+    return parser
+
+
+def main(argv=None):
+    parser = case_parser(__doc__.split("\n")[0])
     parser.add_argument("--laplacian", action="store_true", help="also MeshLab's Laplacian (needs pymeshlab)")
     parser.add_argument("--readings", action="store_true", help="also the majority readings' offsets")
     parser.add_argument("--precision", action="store_true", help="also the oracle against a moved clean surface")

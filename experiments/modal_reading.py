@@ -28,15 +28,14 @@ majority reading, the modal reading per ``tau`` and ``sigma``):
   against the truth.
 """
 
-import argparse
 import os
 import sys
 
 import numpy as np
 from scipy import ndimage
 
-from benchmarks import oracle, quality, shapes
-from experiments.chamfer_sides import chamfer_halves, marching_mesh, signed_distance
+from benchmarks import oracle, quality
+from experiments.chamfer_sides import case_parser, chamfer_halves, marching_mesh, signed_distance
 from skelfilter.core import ball_owners
 from skelfilter.core.decision import two_sided
 from skelfilter.core.decision.feature_restore import ball_closing
@@ -107,11 +106,7 @@ def case_rows(shape, kind, seed, taus, sigmas):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--shapes", nargs="+", default=["fandisk", "spot", "cube", "quadruped"],
-                        choices=sorted(shapes.SHAPES))
-    parser.add_argument("--kinds", nargs="+", default=["bumps-dents"], choices=sorted(quality.NOISE_KINDS))
-    parser.add_argument("--seed", type=int, default=1)
+    parser = case_parser(__doc__.split("\n")[0])
     parser.add_argument("--taus", nargs="+", type=float, default=[two_sided.MODAL_BAND])
     parser.add_argument("--sigmas", nargs="+", type=float, default=[two_sided.MODAL_SIGMA])
     args = parser.parse_args(argv)
