@@ -148,6 +148,20 @@ def modal_reading(volume, window=MAJORITY_WINDOW, sigma=MODAL_SIGMA, band=MODAL_
     (:math:`w_0 = [x \in S]`), a trimmed mean that settles on the local mode of the heights. The reading is
     :math:`d < h` (:math:`h` clipped to `MODAL_REACH`; 0 far from every surface voxel).
 
+    Parameters
+    ----------
+    volume : bool ndarray
+        The input; the grid's outside counts as out.
+    window : int, optional
+        Voxels: the majority reading's cube.
+    sigma, band : float, optional
+        Voxels: the Gaussian of the local mean and the band around it within which a surface voxel counts.
+
+    Returns
+    -------
+    bool ndarray
+        The reading (empty where the majority reading is).
+
     Examples
     --------
     >>> import numpy as np
@@ -164,6 +178,7 @@ def modal_reading(volume, window=MAJORITY_WINDOW, sigma=MODAL_SIGMA, band=MODAL_
         return majority
     distance = distance_transform(~majority).astype(np.float32)
     distance -= distance_transform(majority)
+    # From the voxels' centres to the surface between them: the majority reading's own surface at 0.
     distance -= 0.5 * np.sign(distance)
     surface = surface_voxels(volume).astype(np.float32)
     heights = (distance + 0.5) * surface
