@@ -79,12 +79,13 @@ def test_empty_and_untouched_inputs():
 
 
 def test_close_fills_the_noise_tunnels_of_a_noisy_cube_and_says_so():
-    # the thesis' stripes on a cube at 64 voxels: the stages leave three tunnels, the clean cube has none
+    # the thesis' stripes on a cube at 64 voxels (read as pitted at this size, 0.771: both sides decided):
+    # the stages leave twelve tunnels, the clean cube has none
     cube = trimesh.creation.box((1, 1, 1))
     _, masks, _ = mesh_pipeline.noisy_mesh(cube, NoiseParams(resolution=64, seed=1, p=0.014, r=2.1, h=3, l=6))
     closed = denoise_volume(masks.noisy, DenoiseParams(fine_pass="off", noise_handles="close"))
     kept = denoise_volume(masks.noisy, DenoiseParams(fine_pass="off"))  # the default keeps them
-    assert voxel_genus(kept.mask)["genus"] == 3 and kept.noise_handles_closed == 0
-    assert voxel_genus(closed.mask)["genus"] == 0 and closed.noise_handles_closed == 3
+    assert voxel_genus(kept.mask)["genus"] == 12 and kept.noise_handles_closed == 0
+    assert voxel_genus(closed.mask)["genus"] == 0 and closed.noise_handles_closed == 12
     assert not (kept.mask & ~closed.mask).any()  # voxels added, none taken
     assert (closed.field > 0).sum() == closed.mask.sum()
