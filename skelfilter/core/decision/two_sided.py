@@ -181,7 +181,8 @@ def modal_reading(volume, window=MAJORITY_WINDOW, sigma=MODAL_SIGMA, band=MODAL_
     # From the voxels' centres to the surface between them: the majority reading's own surface at 0.
     distance -= 0.5 * np.sign(distance)
     surface = surface_voxels(volume).astype(np.float32)
-    heights = (distance + 0.5) * surface
+    level = distance + 0.5  # a surface voxel's height: its outer face
+    heights = level * surface
 
     def local_mean(weights):
         total = ndimage.gaussian_filter(weights, sigma)
@@ -189,7 +190,7 @@ def modal_reading(volume, window=MAJORITY_WINDOW, sigma=MODAL_SIGMA, band=MODAL_
 
     height, total = local_mean(surface)
     for _ in range(MODAL_ROUNDS):
-        height, total = local_mean(surface * (np.abs(distance + 0.5 - height) < band))
+        height, total = local_mean(surface * (np.abs(level - height) < band))
     height = np.clip(np.where(total > 1e-3, height, 0.0), -MODAL_REACH, MODAL_REACH)
     return distance < height
 
