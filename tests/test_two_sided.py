@@ -8,7 +8,7 @@ from scipy import ndimage
 
 from skelfilter import denoise_volume
 from skelfilter.core.decision import two_sided
-from skelfilter.core.decision.feature_restore import ball_opening
+from skelfilter.core.decision.feature_restore import ball_closing, ball_opening
 from skelfilter.core.synthetic_noise import add_noise
 
 
@@ -92,6 +92,26 @@ def test_off_the_trusted_parts_what_the_foreground_took_next_to_the_narrow_holes
     # stays gone.
     assert given[12:15, 12:15, 16].sum() == 8 and not out[12:15, 12:15, 17:19].any()
     assert (out ^ clean).sum() < (kept ^ clean).sum()
+
+
+def test_dent_halos_are_what_the_result_took_within_reach_of_a_narrow_hole_brute_force():
+    noisy = np.zeros((24, 24, 24), dtype=bool)
+    noisy[4:20, 4:20, 4:14] = True
+    noisy[11:13, 11:13, 11:14] = False  # a dent 2 voxels wide and 3 deep in the top face
+    output = noisy.copy()
+    output[8:16, 8:16, 11:14] = False  # the dent widened by a halo
+    output[4:6, 4:6, 12:14] = False  # a corner taken far from it
+    holes = ball_closing(noisy, two_sided.HOLE_CLOSING) & ~noisy
+    hole_points = np.argwhere(holes)
+    assert holes[11:13, 11:13, 11:14].all()
+    for reach in (1, 2):
+        halos = two_sided.dent_halos(noisy, output, reach)
+        expected = np.zeros_like(noisy)
+        for point in np.argwhere(noisy & ~output):
+            expected[tuple(point)] = np.sqrt(((hole_points - point) ** 2).sum(axis=1)).min() <= reach
+        assert np.array_equal(halos, expected)
+        assert halos.any() and not halos[4:6, 4:6, 12:14].any()
+    assert not two_sided.dent_halos(noisy, noisy).any()  # nothing taken, nothing given back
 
 
 @pytest.fixture(scope="module")

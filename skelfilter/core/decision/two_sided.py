@@ -254,15 +254,15 @@ def decide_both_sides(volume, kept, window=MAJORITY_WINDOW):
     return (kept & ~taken) | (decided & thick)
 
 
-def dent_halos(volume, kept):
-    """What the foreground's result ``kept`` took of ``volume`` within `HALO_REACH` voxels of the input's
+def dent_halos(volume, kept, reach=HALO_REACH):
+    """What the foreground's result ``kept`` took of ``volume`` within ``reach`` voxels of the input's
     narrow holes (what a closing of ``volume`` by a ball of `HOLE_CLOSING` fills): the halos the pruning
     cut around the dents, and with them the flanks of the bumps it took, which a closing does not tell
     from a dent."""
     holes = ball_closing(volume, HOLE_CLOSING) & ~volume
     if not holes.any():
         return holes
-    return volume & ~kept & (distance_transform(~holes) <= HALO_REACH)
+    return volume & ~kept & (distance_transform(~holes) <= reach)
 
 
 def trusted_parts(reading, volume, kept, window=MAJORITY_WINDOW):
