@@ -15,7 +15,7 @@ flags as a user runs it (the route finds the voxel lattice the noisy mesh was ma
   voxels repaired by the truth: the ``halos`` given back (clean voxels outside the dents that the output
   lost), the ``dents`` filled, the ``bumps`` left taken off;
 - the dent-rim guard: the voxels the default removed within ``δ`` voxels of the input's narrow holes
-  (what a closing of the input by a ball of `two_sided.HOLE_CLOSING` voxels adds) given back, with the bumps left;
+  (what a closing of the input by a ball of `HOLE_CLOSING` voxels adds) given back, with the bumps left;
 - ``--laplacian``: MeshLab's surface-preserving Laplacian (the benchmark's rival, 60°, 50 iterations) on
   the input's decimated mesh and on the default's output;
 - ``--precision``: how precise a reading has to be. The per-ball oracle (`benchmarks.oracle.owned_oracle`,
@@ -43,6 +43,7 @@ from skimage import measure
 from benchmarks import oracle, quality, shapes
 from skelfilter.core import ball_owners
 from skelfilter.core.decision import two_sided
+from skelfilter.core.decision.feature_restore import ball_closing
 from skelfilter.evaluation import metrics
 from skelfilter.mesh import marching_cubes
 from skelfilter.mesh import pipeline as mesh_pipeline
@@ -52,6 +53,9 @@ from skelfilter.params import DenoiseParams
 # The module, not the function the metrics package exports under its name: its directed distances.
 distances = importlib.import_module("skelfilter.evaluation.metrics.surface_distances")
 
+# Voxels: the ball whose closing of the input gives its narrow holes (the thesis' dents, 2.1 voxels in
+# radius, and the valleys between bumps).
+HOLE_CLOSING = 2.5
 # Voxels from the clean surface within which the readings are scored.
 NEAR = 4
 # Voxels: the correlation length of the random field that moves the clean surface (``--precision``).
@@ -85,8 +89,9 @@ def laplacian(mesh):
 
 def rim_guard(noisy, output, delta):
     """``output`` with the voxels it removed from ``noisy`` within ``delta`` voxels of the input's narrow
-    holes given back (`two_sided.dent_halos`, everywhere): the changes that widen a dent not made."""
-    return output | two_sided.dent_halos(noisy, output, delta)
+    holes given back: the changes that widen a dent not made."""
+    holes = ball_closing(noisy, HOLE_CLOSING) & ~noisy
+    return output | (noisy & ~output & (ndimage.distance_transform_edt(~holes) <= delta))
 
 
 def signed_distance(mask):

@@ -8,7 +8,7 @@ from scipy import ndimage
 
 from skelfilter import denoise_volume
 from skelfilter.core.decision import two_sided
-from skelfilter.core.decision.feature_restore import ball_closing, ball_opening
+from skelfilter.core.decision.feature_restore import ball_opening
 from skelfilter.core.synthetic_noise import add_noise
 
 
@@ -67,51 +67,8 @@ def test_both_sides_decided_on_the_thick_part_and_the_thin_part_kept_as_given():
     faces = np.zeros_like(clean)
     faces[16:48, 16:48, :] = faces[16:48, :, 16:48] = faces[:, 16:48, 16:48] = True
     assert not ((out ^ clean) & faces & ~ndimage.binary_dilation(noisy ^ clean, iterations=4)).any()
-    # no thick part: the result as it was, with what it took next to the input's narrow holes given back
-    # (here the bump's foot)
-    halos = two_sided.dent_halos(noisy, kept)
-    assert halos.sum() == 8 and np.array_equal(two_sided.decide_both_sides(noisy, kept, window=65), kept | halos)
-
-
-def test_off_the_trusted_parts_what_the_foreground_took_next_to_the_narrow_holes_is_given_back():
-    clean = np.zeros((48, 48, 24), bool)
-    clean[6:42, 6:42, 8:16] = True  # a plate 8 voxels thick: no part of it is trusted
-    noisy = clean.copy()
-    noisy[12:15, 12:15, 16:19] = True  # a bump on its top
-    noisy[30:33, 30:33, 13:16] = False  # a dent 3 deep
-    kept = clean.copy()
-    kept[29:34, 29:34, 12:16] = False  # the foreground's result: the bump gone, the dent widened by a halo
-    assert not two_sided.trusted_parts(two_sided.majority_reading(noisy), noisy, kept).any()
-    out = two_sided.decide_both_sides(noisy, kept)
-    given = out & ~kept
-    assert not (given & ~noisy).any()  # only the input's own voxels come back
-    # The halo a voxel from the dent (below its rim, where a closing by the ball fills it) comes back ...
-    assert out[30:33, 30:33, 12].all() and out[29, 30:33, 13:15].all() and out[33, 30:33, 13:15].all()
-    assert not out[30:33, 30:33, 13:16].any()  # ... the dent is not filled: nothing decides it here
-    # ... and so does the ring of the bump's foot (the valley around it is a narrow hole as well); its top
-    # stays gone.
-    assert given[12:15, 12:15, 16].sum() == 8 and not out[12:15, 12:15, 17:19].any()
-    assert (out ^ clean).sum() < (kept ^ clean).sum()
-
-
-def test_dent_halos_are_what_the_result_took_within_reach_of_a_narrow_hole_brute_force():
-    noisy = np.zeros((24, 24, 24), dtype=bool)
-    noisy[4:20, 4:20, 4:14] = True
-    noisy[11:13, 11:13, 11:14] = False  # a dent 2 voxels wide and 3 deep in the top face
-    output = noisy.copy()
-    output[8:16, 8:16, 11:14] = False  # the dent widened by a halo
-    output[4:6, 4:6, 12:14] = False  # a corner taken far from it
-    holes = ball_closing(noisy, two_sided.HOLE_CLOSING) & ~noisy
-    hole_points = np.argwhere(holes)
-    assert holes[11:13, 11:13, 11:14].all()
-    for reach in (1, 2):
-        halos = two_sided.dent_halos(noisy, output, reach)
-        expected = np.zeros_like(noisy)
-        for point in np.argwhere(noisy & ~output):
-            expected[tuple(point)] = np.sqrt(((hole_points - point) ** 2).sum(axis=1)).min() <= reach
-        assert np.array_equal(halos, expected)
-        assert halos.any() and not halos[4:6, 4:6, 12:14].any()
-    assert not two_sided.dent_halos(noisy, noisy).any()  # nothing taken, nothing given back
+    # no thick part: the result as it was
+    assert np.array_equal(two_sided.decide_both_sides(noisy, kept, window=65), kept)
 
 
 @pytest.fixture(scope="module")

@@ -159,6 +159,25 @@ def test_cut_takes_an_arch_off_a_block():
     assert (cut[5:25, 5:25, 5:15] == block[5:25, 5:25, 5:15]).all()  # the block itself stays
 
 
+def test_the_dent_rim_guard_gives_back_what_lies_within_delta_of_a_narrow_hole():
+    noisy = np.zeros((24, 24, 24), dtype=bool)
+    noisy[4:20, 4:20, 4:14] = True
+    noisy[11:13, 11:13, 11:14] = False  # a dent 2 voxels wide and 3 deep in the top face
+    output = noisy.copy()
+    output[8:16, 8:16, 11:14] = False  # the dent widened by a halo
+    output[4:6, 4:6, 12:14] = False  # a corner taken far from it
+    holes = chamfer_sides.ball_closing(noisy, chamfer_sides.HOLE_CLOSING) & ~noisy
+    hole_points = np.argwhere(holes)
+    assert holes[11:13, 11:13, 11:14].all()
+    for delta in (1, 2):
+        guarded = chamfer_sides.rim_guard(noisy, output, delta)
+        expected = output.copy()
+        for point in np.argwhere(noisy & ~output):
+            expected[tuple(point)] = np.sqrt(((hole_points - point) ** 2).sum(axis=1)).min() <= delta
+        assert np.array_equal(guarded, expected)
+        assert (guarded & ~output).any() and not guarded[4:6, 4:6, 12:14].any()
+
+
 def test_the_moved_readings_are_the_clean_shape_at_sigma_zero_and_its_erosion_moved_in_by_one():
     clean = np.zeros((32, 32, 32), dtype=bool)
     clean[4:28, 5:27, 6:26] = True

@@ -24,9 +24,7 @@ inside), and neither stage's noise estimate tells whether an input has dents at 
    of both sides of the majority reading, and not at the feet of the thin parts or the mouths of the
    slots that stand out of them (`trusted_parts`); there it fills the dents, gives back the halos the
    pruning took around them and takes the bumps K kept, but of K only what an opening of the input by
-   a ball of `BUMP_RADIUS` takes (the shape's edges, which a window rounds, stay). Elsewhere K stands,
-   less the halos: what it took within `HALO_REACH` of the input's narrow holes comes back
-   (`dent_halos`), so that the dents it cannot decide there are no wider than the input's.
+   a ball of `BUMP_RADIUS` takes (the shape's edges, which a window rounds, stay).
 
 Measured on the quality benchmark's shapes (docs/design/noise-estimate.md, "Both sides decided by the
 majority reading" and "The modal reading").
@@ -72,12 +70,6 @@ FOOT_REACH = THICK_MARGIN + 1.0
 # Voxels: the decision takes from the foreground's result only what an opening by this ball takes from
 # the input (the thesis' bumps are 2.1 voxels in radius; a right-angled edge loses a sliver).
 BUMP_RADIUS = 3.5
-# Voxels: the ball whose closing of the input holds its narrow holes (a thesis dent is about 4 voxels
-# across; a real concavity is filled along its edges only), and how far from them what the foreground
-# took is given back where the decision does not hold: a dent's halo, a voxel deep (at two, most of the
-# bumps' flanks come back too).
-HOLE_CLOSING = 2.5
-HALO_REACH = 1.0
 
 
 @dataclass
@@ -218,8 +210,7 @@ def decide_both_sides(volume, kept, window=MAJORITY_WINDOW):
     """The two-sided decision (see the module's docstring): ``kept`` with the per-ball decision against
     the modal reading of ``volume`` (its bumps' and dents' balls' voxels changed side, the seams smoothed:
     `ball_owners.seam_smoothed`) in its place where the majority reading is trusted (`trusted_parts`),
-    taking from ``kept`` only what an opening of ``volume`` by a ball of `BUMP_RADIUS` takes; elsewhere
-    ``kept`` with its `dent_halos` given back.
+    taking from ``kept`` only what an opening of ``volume`` by a ball of `BUMP_RADIUS` takes.
 
     Parameters
     ----------
@@ -235,11 +226,8 @@ def decide_both_sides(volume, kept, window=MAJORITY_WINDOW):
     bool ndarray
     """
     thick = trusted_parts(majority_reading(volume, window), volume, kept, window)
-    # Off those parts the foreground's result stands, but not the halos it cut around the dents it left:
-    # they take it further from the clean shape than the input.
-    kept = kept | (dent_halos(volume, kept) & ~thick)
     if not thick.any():
-        return kept
+        return kept.copy()
     reading = modal_reading(volume, window)
     # Only balls near the surface can be centred across the reading from their side; their voxels lie
     # within a window of it.
@@ -252,17 +240,6 @@ def decide_both_sides(volume, kept, window=MAJORITY_WINDOW):
     # noise-sized ball: the bumps, not the shape's edges, which a window rounds off.
     taken = kept & ~decided & thick & ~ball_opening(volume, BUMP_RADIUS)
     return (kept & ~taken) | (decided & thick)
-
-
-def dent_halos(volume, kept, reach=HALO_REACH):
-    """What the foreground's result ``kept`` took of ``volume`` within ``reach`` voxels of the input's
-    narrow holes (what a closing of ``volume`` by a ball of `HOLE_CLOSING` fills): the halos the pruning
-    cut around the dents, and with them the flanks of the bumps it took, which a closing does not tell
-    from a dent."""
-    holes = ball_closing(volume, HOLE_CLOSING) & ~volume
-    if not holes.any():
-        return holes
-    return volume & ~kept & (distance_transform(~holes) <= reach)
 
 
 def trusted_parts(reading, volume, kept, window=MAJORITY_WINDOW):
