@@ -173,7 +173,11 @@ def modal_reading(volume, window=MAJORITY_WINDOW, sigma=MODAL_SIGMA, band=MODAL_
     >>> int((reading ^ box).sum()) < int((majority_reading(bumpy) ^ box).sum())   # the edges rounded less
     True
     """
-    majority = majority_reading(volume, window)
+    return _modal_from(volume, majority_reading(volume, window), sigma, band)
+
+
+def _modal_from(volume, majority, sigma=MODAL_SIGMA, band=MODAL_BAND):
+    """`modal_reading` of ``volume`` from its majority reading ``majority``."""
     if not majority.any():
         return majority
     distance = distance_transform(~majority).astype(np.float32)
@@ -225,10 +229,11 @@ def decide_both_sides(volume, kept, window=MAJORITY_WINDOW):
     -------
     bool ndarray
     """
-    thick = trusted_parts(majority_reading(volume, window), volume, kept, window)
+    majority = majority_reading(volume, window)
+    thick = trusted_parts(majority, volume, kept, window)
     if not thick.any():
         return kept.copy()
-    reading = modal_reading(volume, window)
+    reading = _modal_from(volume, majority)
     # Only balls near the surface can be centred across the reading from their side; their voxels lie
     # within a window of it.
     owners = [ball_owners.ray_owners(side, reach=window)
